@@ -1,0 +1,91 @@
+//! Errors of the library: every variant names where the problem came from.
+
+use crate::dof::Dof;
+use crate::math::Real;
+
+/// Identifier of a joint in an [`crate::Mpc184World`] (dense index, stable for the joint's life).
+#[derive(
+    Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize, serde::Deserialize,
+)]
+pub struct JointId(pub u32);
+
+impl core::fmt::Display for JointId {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        write!(f, "joint {}", self.0)
+    }
+}
+
+/// What went wrong, with the joint, body, field or option it concerns.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum Error {
+    /// A KEYOPT value that MPC184 does not define.
+    #[error("KEYOPT({keyopt}) = {value}: {reason}")]
+    InvalidKeyopt {
+        /// Which KEYOPT (1..6).
+        keyopt: u8,
+        /// The value given.
+        value: i64,
+        /// What is allowed.
+        reason: String,
+    },
+    /// Something this crate (or this backend) cannot do, with what to do instead.
+    #[error("unsupported: {what} (hint: {hint})")]
+    Unsupported {
+        /// What was asked for.
+        what: String,
+        /// What to do instead.
+        hint: String,
+    },
+    /// A joint frame (local coordinate system) that is not a proper rotation, or a non-finite node.
+    #[error("{joint}: degenerate frame at node {node}: {reason}")]
+    DegenerateFrame {
+        /// The joint.
+        joint: JointId,
+        /// 1 (node I) or 2 (node J).
+        node: u8,
+        /// What is wrong.
+        reason: String,
+    },
+    /// A body handle that is not in the world, or a joint between a body and itself.
+    #[error("{joint}: body {which}: {reason}")]
+    InvalidBody {
+        /// The joint.
+        joint: JointId,
+        /// 1 or 2.
+        which: u8,
+        /// What is wrong.
+        reason: String,
+    },
+    /// A joint id that does not exist (removed or never inserted).
+    #[error("{0}: no such joint")]
+    UnknownJoint(JointId),
+    /// A world setting out of range.
+    #[error("invalid setting `{field}` = {value}: {reason}")]
+    InvalidSetting {
+        /// The setting.
+        field: &'static str,
+        /// Its value.
+        value: Real,
+        /// What is allowed.
+        reason: &'static str,
+    },
+    /// A DOF used where the joint kind does not allow it (for example a stop on a constrained DOF).
+    #[error("{joint}: DOF {dof}: {reason}")]
+    InvalidDof {
+        /// The joint.
+        joint: JointId,
+        /// The DOF.
+        dof: Dof,
+        /// What is wrong.
+        reason: String,
+    },
+    /// The simulation produced non-finite or exploding values; the world keeps its last good state.
+    #[error("simulation diverged at t = {time} s: {reason}")]
+    Diverged {
+        /// Simulated time of the failing step (s).
+        time: Real,
+        /// What diverged (names the joint or body).
+        reason: String,
+    },
+}

@@ -1,0 +1,106 @@
+//! [`Mpc184Joint`]: the plain, serialisable description of one MPC184 joint element.
+
+use serde::{Deserialize, Serialize};
+
+use crate::catalogue::{Axis, JointKind};
+use crate::math::{Real, Rotation, Vector};
+
+/// How the constraint equations are imposed (KEYOPT(2)).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub enum ConstraintMethod {
+    /// KEYOPT(2) = 0: exact constraints through Lagrange multipliers (the ANSYS default).
+    #[default]
+    Lagrange,
+    /// KEYOPT(2) = 1: penalty springs on the constrained DOFs.
+    Penalty {
+        /// `SECJOINT,PNLT,DISP,val`: on translations (val > 0 scales the default penalty,
+        /// val < 0 gives |val| as the absolute stiffness in N/m; default 1).
+        #[doc(alias = "PNLT")]
+        disp: Real,
+        /// `SECJOINT,PNLT,ROT,val`: on rotations (same rule, N m/rad; default 1).
+        rot: Real,
+    },
+}
+
+/// One MPC184 joint between node I (`1`) and node J (`2`), as given at the start of the
+/// analysis (time 0).
+///
+/// Positions and axes are global. The local coordinate system at I (`axes1`, columns e1 e2 e3)
+/// evolves with body 1; the one at J (`axes2`, default: `axes1`) with body 2. A grounded side
+/// (no body) is the fixed world, placed at the other node (the ANSYS `E,,J` / `E,I` forms).
+///
+/// ```
+/// use rapier3d_mpc184::prelude::*;
+/// let hinge = Mpc184Joint::new(JointKind::Revolute { axis: Axis::Z }, Vector::ZERO);
+/// assert_eq!(hinge.kind.constraint_count(), 5);
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Mpc184Joint {
+    /// The joint type (KEYOPT(1), KEYOPT(4)).
+    pub kind: JointKind,
+    /// Lagrange or penalty (KEYOPT(2)).
+    pub method: ConstraintMethod,
+    /// Global position of node I at time 0 (m).
+    pub node1: Vector,
+    /// Global position of node J at time 0 (m; default: `node1`).
+    pub node2: Vector,
+    /// Orientation of the local system at I at time 0: maps local e1 e2 e3 to global axes
+    /// (`SECJOINT,LSYS` first value; default: the global axes).
+    #[doc(alias = "LSYS")]
+    pub axes1: Rotation,
+    /// Orientation of the local system at J at time 0 (`SECJOINT,LSYS` second value; default:
+    /// the same as `axes1`).
+    pub axes2: Option<Rotation>,
+}
+
+impl Mpc184Joint {
+    /// A joint of `kind` with both nodes at `at` (global, m) and global axes.
+    pub fn new(kind: JointKind, at: Vector) -> Self {
+        Self {
+            kind,
+            method: ConstraintMethod::Lagrange,
+            node1: at,
+            node2: at,
+            axes1: Rotation::IDENTITY,
+            axes2: None,
+        }
+    }
+
+    /// Revolute joint about e1 (`Axis::X`) or e3 (`Axis::Z`) at `at`.
+    pub fn revolute(axis: Axis, at: Vector) -> Self {
+        Self::new(JointKind::Revolute { axis }, at)
+    }
+
+    /// Sets the local system at I (and at J unless set separately).
+    #[must_use]
+    pub fn with_axes(mut self, axes1: Rotation) -> Self {
+        self.axes1 = axes1;
+        self
+    }
+
+    /// Sets a separate local system at J.
+    #[must_use]
+    pub fn with_axes2(mut self, axes2: Rotation) -> Self {
+        self.axes2 = Some(axes2);
+        self
+    }
+
+    /// Places node J at `at` (global, m), for joints whose nodes need not coincide.
+    #[must_use]
+    pub fn with_node2(mut self, at: Vector) -> Self {
+        self.node2 = at;
+        self
+    }
+
+    /// Sets the constraint method (KEYOPT(2)).
+    #[must_use]
+    pub fn with_method(mut self, method: ConstraintMethod) -> Self {
+        self.method = method;
+        self
+    }
+
+    /// The local system at J.
+    pub fn axes2(&self) -> Rotation {
+        self.axes2.unwrap_or(self.axes1)
+    }
+}

@@ -1,0 +1,27 @@
+//! ANSYS Mechanical APDL MPC184 joint semantics on the Rapier physics engine.
+pub mod catalogue;
+pub mod dof;
+pub mod error;
+pub mod joint;
+pub mod kinematics;
+pub mod lower;
+pub mod math;
+pub mod rows;
+pub mod scenes;
+pub mod solver;
+pub mod world;
+
+pub use error::{Error, JointId};
+pub use joint::Mpc184Joint;
+pub use world::Mpc184World;
+
+/// The entry types.
+pub mod prelude {
+    pub use crate::catalogue::{Axis, JointKind};
+    pub use crate::dof::{Dof, DofMask};
+    pub use crate::error::{Error, JointId};
+    pub use crate::joint::{ConstraintMethod, Mpc184Joint};
+    pub use crate::lower::Backend;
+    pub use crate::math::{Real, Rotation, Vector};
+    pub use crate::world::{JointOutput, Mpc184World, WorldSettings};
+}

@@ -1,0 +1,112 @@
+//! Scalar constraint rows of a joint, in MPC184's terms.
+//!
+//! Every row is measured between two frames that coincide at time 0 (see [`crate::lower`]):
+//! frame 1 attached to body 1 and frame 2 attached to body 2, both at node J's initial position
+//! with frame I's initial axes. With `e_k` the axes of frame 1, `f_k` those of frame 2, `p1`,
+//! `p2` their origins:
+//!
+//! | DOF | constraint `C = 0` | why this form |
+//! |---|---|---|
+//! | UX, UY, UZ | `e_k . (p2 - p1)` | relative displacement in frame I |
+//! | ROTX | `e2 . f3` | `= -sin(psi) cos(phi)`: zero iff the Bryant angle psi is |
+//! | ROTY | `e1 . f3` | `= sin(phi)`: exactly MPC184's universal-joint rule (`e1I.e3J` held) |
+//! | ROTZ | `e1 . f2` | `= -cos(phi) sin(theta)`: zero iff theta is |
+//!
+//! A row's Jacobian acts on body velocities `(v, w)` (world frame, at the centre of mass):
+//! linear rows `J1 = (-e, -(p2 - c1) x e)`, `J2 = (e, (p2 - c2) x e)`; angular rows with
+//! `n = a x b`: `J1 = (0, n)`, `J2 = (0, -n)`. A multiplier `lambda` applies `J^T lambda`
+//! (force and torque about the centre of mass) to each body.
+
+use crate::dof::{Dof, DofMask};
+use crate::math::{Matrix, Real, Vector};
+
+/// The geometry of one row.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RowKind {
+    /// `e_axis . (p2 - p1)`.
+    Linear {
+        /// Axis of frame 1 (0 = e1).
+        axis: usize,
+    },
+    /// `e_a . f_b` (axis `a` of frame 1 dotted with axis `b` of frame 2).
+    Angular {
+        /// Axis of frame 1.
+        a: usize,
+        /// Axis of frame 2.
+        b: usize,
+    },
+}
+
+impl RowKind {
+    /// The row that holds `dof` at its initial value.
+    pub const fn lock(dof: Dof) -> RowKind {
+        match dof {
+            Dof::Ux => RowKind::Linear { axis: 0 },
+            Dof::Uy => RowKind::Linear { axis: 1 },
+            Dof::Uz => RowKind::Linear { axis: 2 },
+            Dof::RotX => RowKind::Angular { a: 1, b: 2 },
+            Dof::RotY => RowKind::Angular { a: 0, b: 2 },
+            Dof::RotZ => RowKind::Angular { a: 0, b: 1 },
+        }
+    }
+}
+
+/// The lock rows of a set of constrained DOFs, in ANSYS order.
+pub fn lock_rows(constrained: DofMask) -> impl Iterator<Item = (Dof, RowKind)> {
+    constrained.iter().map(|d| (d, RowKind::lock(d)))
+}
+
+/// World-frame state of the two frames a row is measured between.
+#[derive(Clone, Copy, Debug)]
+pub struct FramePair {
+    /// Origin of frame 1 (m).
+    pub p1: Vector,
+    /// Axes of frame 1 (columns, global components).
+    pub r1: Matrix,
+    /// Centre of mass of body 1 (m).
+    pub c1: Vector,
+    /// Origin of frame 2 (m).
+    pub p2: Vector,
+    /// Axes of frame 2.
+    pub r2: Matrix,
+    /// Centre of mass of body 2 (m).
+    pub c2: Vector,
+}
+
+/// A row evaluated at one configuration: value and Jacobian blocks (linear, angular) per body.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct RowEval {
+    /// Constraint value `C` (m or dimensionless).
+    pub value: Real,
+    /// Body 1 block `[v part; w part]`.
+    pub j1: [Vector; 2],
+    /// Body 2 block.
+    pub j2: [Vector; 2],
+}
+
+impl RowKind {
+    /// Value and Jacobian at the configuration `f`.
+    pub fn eval(self, f: &FramePair) -> RowEval {
+        match self {
+            RowKind::Linear { axis } => {
+                let e = f.r1.col(axis);
+                let d = f.p2 - f.p1;
+                RowEval {
+                    value: e.dot(d),
+                    j1: [-e, -(f.p2 - f.c1).cross(e)],
+                    j2: [e, (f.p2 - f.c2).cross(e)],
+                }
+            }
+            RowKind::Angular { a, b } => {
+                let u = f.r1.col(a);
+                let w = f.r2.col(b);
+                let n = u.cross(w);
+                RowEval {
+                    value: u.dot(w),
+                    j1: [Vector::ZERO, n],
+                    j2: [Vector::ZERO, -n],
+                }
+            }
+        }
+    }
+}

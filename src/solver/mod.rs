@@ -1,0 +1,2 @@
+//! Linear algebra for constraint solves.
+pub mod dense;

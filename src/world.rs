@@ -1,0 +1,659 @@
+//! [`Mpc184World`]: Rapier's bodies, colliders and pipeline plus the MPC184 joint registry.
+//!
+//! `step()` advances one time step `dt` in `substeps` substeps of `h = dt / substeps`, driving
+//! Rapier with one substep per call (`num_solver_iterations = 1`, `dt = h`), so that per-substep
+//! forces and rows can be added around each call. After the step every joint's output (relative
+//! DOFs in ANSYS terms, their rates, the reaction force and moment on node J in frame I) is
+//! refreshed.
+//!
+//! Reactions on the Rapier backends are recovered from momentum balance over the last substep:
+//! the constraint impulse on each body `p_b = M_b dv_b - h f_b` (gravity, user forces, the
+//! gyroscopic torque) is split among the joints by the mass-weighted least-squares solve
+//! `(J M^-1 J^T) mu = J M^-1 p`, with `J` the joints' own rows ([`crate::rows`]). This sidesteps
+//! Rapier's `ImpulseJoint::impulses`, which are coefficients in a Gram-Schmidt-skewed basis of
+//! the last substep only, and works for multibody joints, which write no impulses back.
+
+use crate::dof::Dof;
+use crate::error::{Error, JointId};
+use crate::joint::Mpc184Joint;
+use crate::kinematics::{self, AngleUnwrap};
+use crate::lower::{self, Backend};
+use crate::math::rapier::dynamics::{
+    GenericJointBuilder, ImpulseJointHandle, MultibodyJointHandle, RigidBody, RigidBodyBuilder,
+    RigidBodyHandle,
+};
+use crate::math::rapier::pipeline::PhysicsWorld;
+use crate::math::{Matrix, Pose, Real, Vector};
+use crate::rows::{self, FramePair, RowKind};
+use crate::solver::dense;
+
+/// Settings of a world (time step, substeps, backend).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct WorldSettings {
+    /// Time step of one `step()` call (s; default 1/60).
+    pub dt: Real,
+    /// Substeps per step (default 4); Rapier is called once per substep.
+    pub substeps: usize,
+    /// Joint implementation (default: Rapier impulse joints).
+    pub backend: Backend,
+}
+
+impl Default for WorldSettings {
+    fn default() -> Self {
+        Self {
+            dt: 1.0 / 60.0,
+            substeps: 4,
+            backend: Backend::default(),
+        }
+    }
+}
+
+/// The output of one joint in ANSYS terms, refreshed after every step.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct JointOutput {
+    /// Relative displacement of J from I in frame I, minus its initial value (m): UX UY UZ.
+    pub displacement: Vector,
+    /// Relative rotation (Bryant angles psi, phi, theta about e1, e2, e3), minus the initial
+    /// values, free rotations unwrapped past +-pi (rad): ROTX ROTY ROTZ.
+    pub rotation: Vector,
+    /// Absolute measures `[u; angles]` (not relative to time 0): node J's position from node I in
+    /// frame I (m) and the unwrapped Bryant angles of `[e^I]^T [e^J]` (rad).
+    pub measure: [Real; 6],
+    /// Rate of the relative displacement in frame I (m/s): VELX VELY VELZ.
+    pub velocity: Vector,
+    /// Relative angular velocity of J with respect to I in frame I (rad/s): OMGX OMGY OMGZ.
+    pub angular_velocity: Vector,
+    /// Reaction force the joint exerts on node J, in frame I (N), averaged over the last substep.
+    pub force: Vector,
+    /// Reaction moment the joint exerts on node J, about node J, in frame I (N m).
+    pub moment: Vector,
+}
+
+impl JointOutput {
+    /// The six relative DOF values (UX..ROTZ) relative to time 0.
+    pub fn dofs(&self) -> [Real; 6] {
+        let (u, r) = (self.displacement, self.rotation);
+        [u.x, u.y, u.z, r.x, r.y, r.z]
+    }
+
+    /// The value of one DOF relative to time 0.
+    pub fn dof(&self, dof: Dof) -> Real {
+        self.dofs()[dof.index()]
+    }
+}
+
+#[derive(Clone, Copy, Debug)]
+enum RapierJoint {
+    Impulse(ImpulseJointHandle),
+    Multibody(MultibodyJointHandle),
+}
+
+#[derive(Clone, Debug)]
+struct JointEntry {
+    joint: Mpc184Joint,
+    body1: RigidBodyHandle,
+    body2: RigidBodyHandle,
+    /// Frame I in body 1's local coordinates, frame J in body 2's.
+    ansys: [Pose; 2],
+    /// The lowering frames (coincident at time 0) in each body's local coordinates.
+    low: [Pose; 2],
+    rapier: RapierJoint,
+    rows: Vec<RowKind>,
+    unwrap: [AngleUnwrap; 3],
+    initial: [Real; 6],
+    output: JointOutput,
+}
+
+#[derive(Clone, Copy, Debug, Default)]
+struct BodyStart {
+    pose: Pose,
+    com: Vector,
+    linvel: Vector,
+    angvel: Vector,
+    /// Non-constraint force and torque over the substep (N, N m).
+    force: Vector,
+    torque: Vector,
+}
+
+/// Rapier's physics world plus MPC184 joints.
+///
+/// ```
+/// use rapier3d_mpc184::prelude::*;
+/// use rapier3d_mpc184::math::rapier::prelude::{RigidBodyBuilder, MassProperties};
+///
+/// let mut world = Mpc184World::new(WorldSettings::default());
+/// let bob = world.physics.bodies.insert(
+///     RigidBodyBuilder::dynamic()
+///         .translation(Vector::new(1.0, 0.0, 0.0))
+///         .additional_mass_properties(MassProperties::new(Vector::ZERO, 1.0, Vector::splat(1e-4))),
+/// );
+/// let pin = Mpc184Joint::revolute(Axis::Z, Vector::ZERO);
+/// let id = world.insert_joint(None, Some(bob), pin).unwrap();
+/// for _ in 0..30 {
+///     world.step().unwrap();
+/// }
+/// let out = world.output(id).unwrap();
+/// assert!(out.rotation.z < 0.0); // the bob swings down (clockwise about +Z)
+/// ```
+pub struct Mpc184World {
+    /// Rapier's bodies, colliders, joints and pipeline. Add bodies and colliders here; add joints
+    /// with [`Mpc184World::insert_joint`].
+    pub physics: PhysicsWorld,
+    settings: WorldSettings,
+    ground: Option<RigidBodyHandle>,
+    joints: Vec<Option<JointEntry>>,
+    time: Real,
+    last_h: Real,
+    starts: Vec<(RigidBodyHandle, BodyStart)>,
+    gyro_added: Vec<(RigidBodyHandle, Vector)>,
+}
+
+impl Mpc184World {
+    /// An empty world with gravity -9.81 m/s^2 along Y.
+    pub fn new(settings: WorldSettings) -> Self {
+        let mut physics = PhysicsWorld::default();
+        physics.gravity = Vector::new(0.0, -9.81, 0.0);
+        Self {
+            physics,
+            settings,
+            ground: None,
+            joints: Vec::new(),
+            time: 0.0,
+            last_h: settings.dt / settings.substeps.max(1) as Real,
+            starts: Vec::new(),
+            gyro_added: Vec::new(),
+        }
+    }
+
+    /// The settings.
+    pub fn settings(&self) -> &WorldSettings {
+        &self.settings
+    }
+
+    /// Simulated time (s).
+    pub fn time(&self) -> Real {
+        self.time
+    }
+
+    /// The fixed body standing for the ground (created on first use).
+    pub fn ground(&mut self) -> RigidBodyHandle {
+        if let Some(g) = self.ground {
+            return g;
+        }
+        let g = self.physics.bodies.insert(RigidBodyBuilder::fixed());
+        self.ground = Some(g);
+        g
+    }
+
+    /// Inserts a joint between body 1 (node I) and body 2 (node J); `None` is the ground.
+    pub fn insert_joint(
+        &mut self,
+        body1: Option<RigidBodyHandle>,
+        body2: Option<RigidBodyHandle>,
+        mut joint: Mpc184Joint,
+    ) -> Result<JointId, Error> {
+        let id = JointId(self.joints.len() as u32);
+        validate_frames(id, &joint)?;
+        for (which, b) in [(1u8, body1), (2, body2)] {
+            if let Some(h) = b {
+                if self.physics.bodies.get(h).is_none() {
+                    return Err(Error::InvalidBody {
+                        joint: id,
+                        which,
+                        reason: "no such body".into(),
+                    });
+                }
+            }
+        }
+        match (body1, body2) {
+            (None, None) => {
+                return Err(Error::InvalidBody {
+                    joint: id,
+                    which: 2,
+                    reason: "both nodes grounded: a joint needs at least one body".into(),
+                });
+            }
+            (Some(a), Some(b)) if a == b => {
+                return Err(Error::InvalidBody {
+                    joint: id,
+                    which: 2,
+                    reason: "a joint between a body and itself".into(),
+                });
+            }
+            _ => {}
+        }
+        // The grounded side is the fixed world at the other node's location.
+        if body1.is_none() {
+            joint.node1 = joint.node2;
+        }
+        if body2.is_none() {
+            joint.node2 = joint.node1;
+        }
+        let mask = lower::lower(&joint.kind, joint.method, self.settings.backend)?;
+        let b1 = match body1 {
+            Some(h) => h,
+            None => self.ground(),
+        };
+        let b2 = match body2 {
+            Some(h) => h,
+            None => self.ground(),
+        };
+        let pose1 = self.physics.bodies[b1].position().to_owned();
+        let pose2 = self.physics.bodies[b2].position().to_owned();
+        let ansys1 = pose1.inverse() * Pose::from_parts(joint.node1, joint.axes1);
+        let ansys2 = pose2.inverse() * Pose::from_parts(joint.node2, joint.axes2());
+        let low_world = Pose::from_parts(joint.node2, joint.axes1);
+        let low = [pose1.inverse() * low_world, pose2.inverse() * low_world];
+        let q = lower::principal_rotation(joint.kind.principal_axis());
+        let generic = GenericJointBuilder::new(mask)
+            .local_frame1(low[0] * q)
+            .local_frame2(low[1] * q)
+            .contacts_enabled(false)
+            .build();
+        let rapier = match self.settings.backend {
+            Backend::RapierImpulse => {
+                RapierJoint::Impulse(self.physics.impulse_joints.insert(b1, b2, generic, true))
+            }
+            Backend::RapierMultibody => {
+                let h = self.physics.multibody_joints.insert(b1, b2, generic, true).ok_or_else(|| {
+                    Error::Unsupported {
+                        what: format!(
+                            "{id}: a multibody joint that closes a loop or gives body 2 a second parent"
+                        ),
+                        hint: "multibody joints form trees with body 1 as the parent; use the \
+                               impulse backend for loops"
+                            .into(),
+                    }
+                })?;
+                if let Some((mb, _)) = self.physics.multibody_joints.get_mut(h) {
+                    // Rapier gives every free angular DOF a default damping of 0.1: not MPC184's.
+                    mb.damping_mut().fill(0.0);
+                }
+                RapierJoint::Multibody(h)
+            }
+        };
+        for h in [b1, b2] {
+            let rb = &mut self.physics.bodies[h];
+            // Rapier fills in mass properties lazily at the first step; the energies, the
+            // reaction recovery and the initial output need them now.
+            rb.recompute_mass_properties_from_colliders(&self.physics.colliders);
+            if rb.is_dynamic() {
+                // Our per-substep loop adds -w x Iw itself, so the momentum balance that recovers
+                // reactions knows every non-constraint torque; no hidden angular-velocity cap.
+                rb.enable_gyroscopic_forces(false);
+                rb.set_allow_fast_rotation(true);
+            }
+        }
+        let rows = rows::lock_rows(joint.kind.constrained())
+            .map(|(_, r)| r)
+            .collect();
+        let mut entry = JointEntry {
+            joint,
+            body1: b1,
+            body2: b2,
+            ansys: [ansys1, ansys2],
+            low,
+            rapier,
+            rows,
+            unwrap: [AngleUnwrap::default(); 3],
+            initial: [0.0; 6],
+            output: JointOutput::default(),
+        };
+        let (m, wrapped) = self.measures(&entry);
+        entry.unwrap = wrapped.map(AngleUnwrap::new);
+        entry.initial = m;
+        self.joints.push(Some(entry));
+        self.refresh_output(id.0 as usize);
+        Ok(id)
+    }
+
+    /// Removes a joint (its Rapier joint too).
+    pub fn remove_joint(&mut self, id: JointId) -> Result<Mpc184Joint, Error> {
+        let entry = self
+            .joints
+            .get_mut(id.0 as usize)
+            .and_then(Option::take)
+            .ok_or(Error::UnknownJoint(id))?;
+        match entry.rapier {
+            RapierJoint::Impulse(h) => {
+                self.physics.impulse_joints.remove(h, true);
+            }
+            RapierJoint::Multibody(h) => {
+                self.physics.multibody_joints.remove(h, true);
+            }
+        }
+        Ok(entry.joint)
+    }
+
+    /// The joint description.
+    pub fn joint(&self, id: JointId) -> Result<&Mpc184Joint, Error> {
+        self.entry(id).map(|e| &e.joint)
+    }
+
+    /// The output of a joint after the last step.
+    pub fn output(&self, id: JointId) -> Result<&JointOutput, Error> {
+        self.entry(id).map(|e| &e.output)
+    }
+
+    /// Ids of all joints.
+    pub fn joint_ids(&self) -> impl Iterator<Item = JointId> + '_ {
+        self.joints
+            .iter()
+            .enumerate()
+            .filter(|(_, e)| e.is_some())
+            .map(|(i, _)| JointId(i as u32))
+    }
+
+    fn entry(&self, id: JointId) -> Result<&JointEntry, Error> {
+        self.joints
+            .get(id.0 as usize)
+            .and_then(Option::as_ref)
+            .ok_or(Error::UnknownJoint(id))
+    }
+
+    /// Linear and angular velocity of a body's centre of mass (world frame). Multibody links are
+    /// read through the multibody Jacobian: their `RigidBody` velocities lag one substep.
+    pub fn body_velocity(&self, h: RigidBodyHandle) -> (Vector, Vector) {
+        let rb = &self.physics.bodies[h];
+        if self.settings.backend == Backend::RapierMultibody {
+            if let Some(link) = self.physics.multibody_joints.rigid_body_link(h) {
+                if let Some(mb) = self.physics.multibody_joints.get_multibody(link.multibody) {
+                    let jac = mb.body_jacobian(link.id);
+                    let qd = mb.generalized_velocity();
+                    // Before the first step the Jacobians are not built yet (0 columns).
+                    if jac.ncols() == qd.len() && jac.nrows() == 6 {
+                        let v = jac * qd;
+                        return (Vector::new(v[0], v[1], v[2]), Vector::new(v[3], v[4], v[5]));
+                    }
+                }
+            }
+        }
+        (rb.linvel(), rb.angvel())
+    }
+
+    /// Kinetic energy of all dynamic bodies (J).
+    pub fn kinetic_energy(&self) -> Real {
+        let mut e = 0.0;
+        for (h, rb) in self.physics.bodies.iter() {
+            if !rb.is_dynamic() {
+                continue;
+            }
+            let (v, w) = self.body_velocity(h);
+            e += 0.5 * rb.mass() * v.length_squared() + 0.5 * w.dot(world_inertia(rb) * w);
+        }
+        e
+    }
+
+    /// Gravitational potential energy of all dynamic bodies, zero at the origin (J).
+    pub fn potential_energy(&self) -> Real {
+        let g = self.physics.gravity;
+        self.physics
+            .bodies
+            .iter()
+            .filter(|(_, rb)| rb.is_dynamic())
+            .map(|(_, rb)| -rb.mass() * rb.gravity_scale() * g.dot(rb.center_of_mass()))
+            .sum()
+    }
+
+    /// Advances one time step (`settings.dt`) in `settings.substeps` Rapier calls.
+    pub fn step(&mut self) -> Result<(), Error> {
+        let n = self.settings.substeps;
+        if n == 0 || !(self.settings.dt > 0.0) {
+            return Err(Error::InvalidSetting {
+                field: "dt/substeps",
+                value: self.settings.dt,
+                reason: "dt must be positive and substeps at least 1",
+            });
+        }
+        let h = self.settings.dt / n as Real;
+        self.last_h = h;
+        self.physics.integration_parameters.dt = h;
+        self.physics.integration_parameters.num_solver_iterations = 1;
+        for s in 0..n {
+            let last = s + 1 == n;
+            self.begin_substep(last);
+            self.physics.step();
+            self.end_substep();
+        }
+        self.time += self.settings.dt;
+        for (h, rb) in self.physics.bodies.iter() {
+            let p = rb.position();
+            let ok = p.translation.is_finite()
+                && p.rotation.is_finite()
+                && rb.linvel().is_finite()
+                && rb.angvel().is_finite();
+            if !ok {
+                return Err(Error::Diverged {
+                    time: self.time,
+                    reason: format!(
+                        "body {:?} has a non-finite pose or velocity",
+                        h.into_raw_parts()
+                    ),
+                });
+            }
+        }
+        self.recover_reactions();
+        for i in 0..self.joints.len() {
+            self.refresh_output(i);
+        }
+        Ok(())
+    }
+
+    fn begin_substep(&mut self, record: bool) {
+        self.starts.clear();
+        let mut touched: Vec<RigidBodyHandle> = Vec::new();
+        for e in self.joints.iter().flatten() {
+            for b in [e.body1, e.body2] {
+                if self.physics.bodies[b].is_dynamic() && !touched.contains(&b) {
+                    touched.push(b);
+                }
+            }
+        }
+        let g = self.physics.gravity;
+        let impulse_backend = self.settings.backend == Backend::RapierImpulse;
+        for b in touched {
+            let (v, w) = self.body_velocity(b);
+            let rb = &mut self.physics.bodies[b];
+            let inertia = world_inertia(rb);
+            let gyro = -w.cross(inertia * w);
+            let start = BodyStart {
+                pose: *rb.position(),
+                com: rb.center_of_mass(),
+                linvel: v,
+                angvel: w,
+                force: rb.user_force() + g * (rb.mass() * rb.gravity_scale()),
+                torque: rb.user_torque() + gyro,
+            };
+            if impulse_backend {
+                // Rapier's own gyroscopic term is off on jointed bodies (see insert_joint).
+                rb.add_torque(gyro, false);
+            }
+            if record {
+                self.starts.push((b, start));
+            }
+            if impulse_backend {
+                // Taken off again in end_substep (Rapier's forces persist across steps).
+                self.gyro_added.push((b, gyro));
+            }
+        }
+    }
+
+    fn end_substep(&mut self) {
+        for (b, gyro) in self.gyro_added.drain(..) {
+            self.physics.bodies[b].add_torque(-gyro, false);
+        }
+    }
+
+    /// Splits the constraint impulses of the last substep among the joints (see module docs).
+    fn recover_reactions(&mut self) {
+        let h = self.last_h;
+        let starts = core::mem::take(&mut self.starts);
+        let index_of = |b: RigidBodyHandle| starts.iter().position(|(x, _)| *x == b);
+        // Body blocks: M_b and the impulse p_b.
+        let nb = starts.len();
+        let mut mass = vec![[[0.0 as Real; 6]; 6]; nb];
+        let mut impulse = vec![[0.0 as Real; 6]; nb];
+        for (i, (b, s)) in starts.iter().enumerate() {
+            let rb = &self.physics.bodies[*b];
+            let m = rb.mass();
+            let inertia = inertia_at(rb, &s.pose);
+            for k in 0..3 {
+                mass[i][k][k] = m;
+                for l in 0..3 {
+                    mass[i][3 + k][3 + l] = inertia.col(l)[k];
+                }
+            }
+            let (v, w) = self.body_velocity(*b);
+            let p = (v - s.linvel) * m - s.force * h;
+            let l = inertia * (w - s.angvel) - s.torque * h;
+            impulse[i] = [p.x, p.y, p.z, l.x, l.y, l.z];
+        }
+        // Rows at the substep start, the configuration Rapier built its own rows at.
+        let mut jac: Vec<[Real; 12]> = Vec::new();
+        let mut cols: Vec<[Option<usize>; 2]> = Vec::new();
+        let mut owner: Vec<(usize, rows::RowEval)> = Vec::new();
+        for (ji, e) in self.joints.iter().enumerate() {
+            let Some(e) = e else { continue };
+            let pose_of = |b: RigidBodyHandle| match index_of(b) {
+                Some(i) => (starts[i].1.pose, starts[i].1.com),
+                None => {
+                    let rb = &self.physics.bodies[b];
+                    (*rb.position(), rb.center_of_mass())
+                }
+            };
+            let f = frame_pair(&e.low, pose_of(e.body1), pose_of(e.body2));
+            for r in &e.rows {
+                let ev = r.eval(&f);
+                let mut row = [0.0; 12];
+                for k in 0..3 {
+                    row[k] = ev.j1[0][k];
+                    row[3 + k] = ev.j1[1][k];
+                    row[6 + k] = ev.j2[0][k];
+                    row[9 + k] = ev.j2[1][k];
+                }
+                jac.push(row);
+                cols.push([index_of(e.body1), index_of(e.body2)]);
+                owner.push((ji, ev));
+            }
+        }
+        let mu = dense::least_squares_multipliers(&mass, &impulse, &jac, &cols);
+        // Accumulate each joint's wrench on body 2 and express it at node J in frame I.
+        let mut wrench: Vec<(Vector, Vector)> =
+            vec![(Vector::ZERO, Vector::ZERO); self.joints.len()];
+        for ((ji, ev), m) in owner.iter().zip(&mu) {
+            wrench[*ji].0 += ev.j2[0] * (*m / h);
+            wrench[*ji].1 += ev.j2[1] * (*m / h);
+        }
+        for (ji, e) in self.joints.iter_mut().enumerate() {
+            let Some(e) = e else { continue };
+            let rb2 = &self.physics.bodies[e.body2];
+            let pose1 = self.physics.bodies[e.body1].position();
+            let node_j = *rb2.position() * e.ansys[1].translation;
+            let axes_i = Matrix::from_quat((pose1.rotation * e.ansys[0].rotation).into());
+            let (f, tau) = wrench[ji];
+            let moment = tau - (node_j - rb2.center_of_mass()).cross(f);
+            e.output.force = axes_i.transpose() * f;
+            e.output.moment = axes_i.transpose() * moment;
+        }
+        self.starts = starts;
+    }
+
+    /// Absolute measures of a joint now, and the three wrapped Bryant angles.
+    fn measures(&self, e: &JointEntry) -> ([Real; 6], [Real; 3]) {
+        let p1 = self.physics.bodies[e.body1].position();
+        let p2 = self.physics.bodies[e.body2].position();
+        let f1 = *p1 * e.ansys[0];
+        let f2 = *p2 * e.ansys[1];
+        let a1 = Matrix::from_quat(f1.rotation.into());
+        let a2 = Matrix::from_quat(f2.rotation.into());
+        let u = kinematics::relative_displacement(&a1, f1.translation, f2.translation);
+        let ang = kinematics::bryant_angles(&kinematics::relative_rotation(&a1, &a2));
+        ([u.x, u.y, u.z, ang[0], ang[1], ang[2]], ang)
+    }
+
+    fn refresh_output(&mut self, i: usize) {
+        let Some(e) = &self.joints[i] else { return };
+        let (mut m, wrapped) = self.measures(e);
+        let p1 = *self.physics.bodies[e.body1].position();
+        let p2 = *self.physics.bodies[e.body2].position();
+        let f1 = p1 * e.ansys[0];
+        let f2 = p2 * e.ansys[1];
+        let a1 = Matrix::from_quat(f1.rotation.into());
+        let (v1, w1) = self.point_velocity(e.body1, f1.translation);
+        let (v2, w2) = self.point_velocity(e.body2, f2.translation);
+        let vel = kinematics::relative_velocity(&a1, f1.translation, f2.translation, v1, v2, w1);
+        let omg = kinematics::relative_angular_velocity(&a1, w1, w2);
+        let Some(e) = &mut self.joints[i] else { return };
+        for k in 0..3 {
+            // psi and theta are unwrapped; phi = asin(..) never wraps.
+            m[3 + k] = if k == 1 {
+                wrapped[k]
+            } else {
+                e.unwrap[k].update(wrapped[k])
+            };
+        }
+        let d: [Real; 6] = core::array::from_fn(|k| m[k] - e.initial[k]);
+        e.output.measure = m;
+        e.output.displacement = Vector::new(d[0], d[1], d[2]);
+        e.output.rotation = Vector::new(d[3], d[4], d[5]);
+        e.output.velocity = vel;
+        e.output.angular_velocity = omg;
+    }
+
+    /// Velocity of the material point at `x` of a body, and the body's angular velocity.
+    fn point_velocity(&self, b: RigidBodyHandle, x: Vector) -> (Vector, Vector) {
+        let rb = &self.physics.bodies[b];
+        if !rb.is_dynamic() {
+            return (rb.velocity_at_point(x), rb.angvel());
+        }
+        let (v, w) = self.body_velocity(b);
+        (v + w.cross(x - rb.center_of_mass()), w)
+    }
+}
+
+fn frame_pair(low: &[Pose; 2], b1: (Pose, Vector), b2: (Pose, Vector)) -> FramePair {
+    let f1 = b1.0 * low[0];
+    let f2 = b2.0 * low[1];
+    FramePair {
+        p1: f1.translation,
+        r1: Matrix::from_quat(f1.rotation.into()),
+        c1: b1.1,
+        p2: f2.translation,
+        r2: Matrix::from_quat(f2.rotation.into()),
+        c2: b2.1,
+    }
+}
+
+/// World inertia tensor of a body at its current pose (kg m^2).
+fn world_inertia(rb: &RigidBody) -> Matrix {
+    inertia_at(rb, rb.position())
+}
+
+/// World inertia tensor of a body at `pose` (kg m^2).
+fn inertia_at(rb: &RigidBody, pose: &Pose) -> Matrix {
+    let mp = &rb.mass_properties().local_mprops;
+    let r = Matrix::from_quat((pose.rotation * mp.principal_inertia_local_frame).into());
+    let ip = mp.principal_inertia();
+    r * Matrix::from_diagonal(ip) * r.transpose()
+}
+
+/// Checks that the joint's nodes are finite and its axes proper rotations.
+fn validate_frames(id: JointId, j: &Mpc184Joint) -> Result<(), Error> {
+    for (node, x, q) in [(1u8, j.node1, j.axes1), (2, j.node2, j.axes2())] {
+        if !x.is_finite() {
+            return Err(Error::DegenerateFrame {
+                joint: id,
+                node,
+                reason: format!("position {x} is not finite"),
+            });
+        }
+        if !q.is_finite() || (q.length() - 1.0).abs() > 1e-6 {
+            return Err(Error::DegenerateFrame {
+                joint: id,
+                node,
+                reason: format!("axes {q} are not a unit quaternion (a proper rotation)"),
+            });
+        }
+    }
+    Ok(())
+}
