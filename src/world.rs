@@ -146,6 +146,7 @@ pub struct Mpc184World {
     last_h: Real,
     starts: Vec<(RigidBodyHandle, BodyStart)>,
     gyro_added: Vec<(RigidBodyHandle, Vector)>,
+    started: bool,
 }
 
 impl Mpc184World {
@@ -162,6 +163,7 @@ impl Mpc184World {
             last_h: settings.dt / settings.substeps.max(1) as Real,
             starts: Vec::new(),
             gyro_added: Vec::new(),
+            started: false,
         }
     }
 
@@ -405,6 +407,12 @@ impl Mpc184World {
                 reason: "dt must be positive and substeps at least 1",
             });
         }
+        if !self.started {
+            self.started = true;
+            if self.settings.backend == Backend::RapierMultibody {
+                self.init_multibody_velocities();
+            }
+        }
         let h = self.settings.dt / n as Real;
         self.last_h = h;
         self.physics.integration_parameters.dt = h;
@@ -481,6 +489,57 @@ impl Mpc184World {
     fn end_substep(&mut self) {
         for (b, gyro) in self.gyro_added.drain(..) {
             self.physics.bodies[b].add_torque(-gyro, false);
+        }
+    }
+
+    /// Multibody links take their velocities from generalized velocities, which start at zero:
+    /// set them to the mass-weighted least-squares fit of the bodies' own velocities
+    /// (`q' = (J^T M J)^-1 J^T M V`, the momentum-consistent projection onto the joints).
+    fn init_multibody_velocities(&mut self) {
+        let mut seen = Vec::new();
+        for e in self.joints.iter().flatten() {
+            if let Some(link) = self.physics.multibody_joints.rigid_body_link(e.body2) {
+                if !seen.contains(&link.multibody) {
+                    seen.push(link.multibody);
+                }
+            }
+        }
+        for mbi in seen {
+            let bodies = &self.physics.bodies;
+            let Some(mb) = self.physics.multibody_joints.get_multibody_mut(mbi) else {
+                continue;
+            };
+            mb.forward_kinematics(bodies, true);
+            let n = mb.ndofs();
+            if n == 0 {
+                continue;
+            }
+            let mut a = vec![0.0 as Real; n * n];
+            let mut b = vec![0.0 as Real; n];
+            for (li, link) in mb.links().enumerate() {
+                let rb = &bodies[link.rigid_body_handle()];
+                let jac = mb.body_jacobian(li);
+                if jac.ncols() != n {
+                    continue;
+                }
+                let m = rb.mass();
+                let inertia = world_inertia(rb);
+                let (v, w) = (rb.linvel(), rb.angvel());
+                // M J column by column.
+                for c in 0..n {
+                    let jl = Vector::new(jac[(0, c)], jac[(1, c)], jac[(2, c)]);
+                    let ja = Vector::new(jac[(3, c)], jac[(4, c)], jac[(5, c)]);
+                    let (ml, ma) = (jl * m, inertia * ja);
+                    b[c] += ml.dot(v) + ma.dot(w);
+                    for r in 0..n {
+                        let kl = Vector::new(jac[(0, r)], jac[(1, r)], jac[(2, r)]);
+                        let ka = Vector::new(jac[(3, r)], jac[(4, r)], jac[(5, r)]);
+                        a[r * n + c] += kl.dot(ml) + ka.dot(ma);
+                    }
+                }
+            }
+            dense::cholesky_solve_dropping(&mut a, &mut b, n);
+            mb.generalized_velocity_mut().copy_from_slice(&b);
         }
     }
 

@@ -54,9 +54,9 @@ pub fn least_squares_multipliers(
     rhs
 }
 
-/// In-place Cholesky solve of the SPD (or semidefinite) `a` (n x n, row-major); rows whose
+/// In-place Cholesky solve (the solution overwrites `b`) of the SPD (or semidefinite) `a` (n x n, row-major); rows whose
 /// pivot falls below a relative tolerance are treated as dependent and solved as zero.
-fn cholesky_solve_dropping(a: &mut [Real], b: &mut [Real], n: usize) {
+pub fn cholesky_solve_dropping(a: &mut [Real], b: &mut [Real], n: usize) {
     let scale = (0..n)
         .map(|i| a[i * n + i].abs())
         .fold(0.0, Real::max)
