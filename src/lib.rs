@@ -1,4 +1,4 @@
-//! ANSYS Mechanical APDL MPC184 joint semantics on the Rapier physics engine.
+#![doc = include_str!("../README.md")]
 pub mod catalogue;
 pub mod dof;
 pub mod error;
@@ -6,6 +6,7 @@ pub mod joint;
 pub mod kinematics;
 pub mod lower;
 pub mod math;
+pub mod metrics;
 pub mod rows;
 pub mod scenes;
 pub mod solver;

@@ -54,7 +54,7 @@ pub const fn rapier_axis(axis: usize, principal: usize) -> usize {
     (axis + 3 - principal) % 3
 }
 
-/// The rotation from Rapier's joint axes to frame I axes: Rapier X = e_principal,
+/// The rotation from Rapier's joint axes to frame I axes: Rapier X = `e_principal`,
 /// Y = e_(principal+1), Z = e_(principal+2).
 pub fn principal_rotation(principal: usize) -> Rotation {
     let e = |i: usize| Vector::AXES[i % 3];

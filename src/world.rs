@@ -67,6 +67,10 @@ pub struct JointOutput {
     pub force: Vector,
     /// Reaction moment the joint exerts on node J, about node J, in frame I (N m).
     pub moment: Vector,
+    /// Constraint error of the translational rows: largest |C| (m).
+    pub gap: Real,
+    /// Constraint error of the rotational rows: largest |C| (dimensionless, ~rad).
+    pub angular_gap: Real,
 }
 
 impl JointOutput {
@@ -152,8 +156,10 @@ pub struct Mpc184World {
 impl Mpc184World {
     /// An empty world with gravity -9.81 m/s^2 along Y.
     pub fn new(settings: WorldSettings) -> Self {
-        let mut physics = PhysicsWorld::default();
-        physics.gravity = Vector::new(0.0, -9.81, 0.0);
+        let physics = PhysicsWorld {
+            gravity: Vector::new(0.0, -9.81, 0.0),
+            ..Default::default()
+        };
         Self {
             physics,
             settings,
@@ -197,8 +203,10 @@ impl Mpc184World {
         let id = JointId(self.joints.len() as u32);
         validate_frames(id, &joint)?;
         for (which, b) in [(1u8, body1), (2, body2)] {
-            if let Some(h) = b {
-                if self.physics.bodies.get(h).is_none() {
+            if let Some(h) = b
+                && self.physics.bodies.get(h).is_none()
+            {
+                {
                     return Err(Error::InvalidBody {
                         joint: id,
                         which,
@@ -357,17 +365,16 @@ impl Mpc184World {
     /// read through the multibody Jacobian: their `RigidBody` velocities lag one substep.
     pub fn body_velocity(&self, h: RigidBodyHandle) -> (Vector, Vector) {
         let rb = &self.physics.bodies[h];
-        if self.settings.backend == Backend::RapierMultibody {
-            if let Some(link) = self.physics.multibody_joints.rigid_body_link(h) {
-                if let Some(mb) = self.physics.multibody_joints.get_multibody(link.multibody) {
-                    let jac = mb.body_jacobian(link.id);
-                    let qd = mb.generalized_velocity();
-                    // Before the first step the Jacobians are not built yet (0 columns).
-                    if jac.ncols() == qd.len() && jac.nrows() == 6 {
-                        let v = jac * qd;
-                        return (Vector::new(v[0], v[1], v[2]), Vector::new(v[3], v[4], v[5]));
-                    }
-                }
+        if self.settings.backend == Backend::RapierMultibody
+            && let Some(link) = self.physics.multibody_joints.rigid_body_link(h)
+            && let Some(mb) = self.physics.multibody_joints.get_multibody(link.multibody)
+        {
+            let jac = mb.body_jacobian(link.id);
+            let qd = mb.generalized_velocity();
+            // Before the first step the Jacobians are not built yet (0 columns).
+            if jac.ncols() == qd.len() && jac.nrows() == 6 {
+                let v = jac * qd;
+                return (Vector::new(v[0], v[1], v[2]), Vector::new(v[3], v[4], v[5]));
             }
         }
         (rb.linvel(), rb.angvel())
@@ -400,7 +407,7 @@ impl Mpc184World {
     /// Advances one time step (`settings.dt`) in `settings.substeps` Rapier calls.
     pub fn step(&mut self) -> Result<(), Error> {
         let n = self.settings.substeps;
-        if n == 0 || !(self.settings.dt > 0.0) {
+        if n == 0 || self.settings.dt.is_nan() || self.settings.dt <= 0.0 {
             return Err(Error::InvalidSetting {
                 field: "dt/substeps",
                 value: self.settings.dt,
@@ -498,10 +505,10 @@ impl Mpc184World {
     fn init_multibody_velocities(&mut self) {
         let mut seen = Vec::new();
         for e in self.joints.iter().flatten() {
-            if let Some(link) = self.physics.multibody_joints.rigid_body_link(e.body2) {
-                if !seen.contains(&link.multibody) {
-                    seen.push(link.multibody);
-                }
+            if let Some(link) = self.physics.multibody_joints.rigid_body_link(e.body2)
+                && !seen.contains(&link.multibody)
+            {
+                seen.push(link.multibody);
             }
         }
         for mbi in seen {
@@ -608,7 +615,7 @@ impl Mpc184World {
             let rb2 = &self.physics.bodies[e.body2];
             let pose1 = self.physics.bodies[e.body1].position();
             let node_j = *rb2.position() * e.ansys[1].translation;
-            let axes_i = Matrix::from_quat((pose1.rotation * e.ansys[0].rotation).into());
+            let axes_i = Matrix::from_quat(pose1.rotation * e.ansys[0].rotation);
             let (f, tau) = wrench[ji];
             let moment = tau - (node_j - rb2.center_of_mass()).cross(f);
             e.output.force = axes_i.transpose() * f;
@@ -623,8 +630,8 @@ impl Mpc184World {
         let p2 = self.physics.bodies[e.body2].position();
         let f1 = *p1 * e.ansys[0];
         let f2 = *p2 * e.ansys[1];
-        let a1 = Matrix::from_quat(f1.rotation.into());
-        let a2 = Matrix::from_quat(f2.rotation.into());
+        let a1 = Matrix::from_quat(f1.rotation);
+        let a2 = Matrix::from_quat(f2.rotation);
         let u = kinematics::relative_displacement(&a1, f1.translation, f2.translation);
         let ang = kinematics::bryant_angles(&kinematics::relative_rotation(&a1, &a2));
         ([u.x, u.y, u.z, ang[0], ang[1], ang[2]], ang)
@@ -637,12 +644,23 @@ impl Mpc184World {
         let p2 = *self.physics.bodies[e.body2].position();
         let f1 = p1 * e.ansys[0];
         let f2 = p2 * e.ansys[1];
-        let a1 = Matrix::from_quat(f1.rotation.into());
+        let a1 = Matrix::from_quat(f1.rotation);
         let (v1, w1) = self.point_velocity(e.body1, f1.translation);
         let (v2, w2) = self.point_velocity(e.body2, f2.translation);
         let vel = kinematics::relative_velocity(&a1, f1.translation, f2.translation, v1, v2, w1);
         let omg = kinematics::relative_angular_velocity(&a1, w1, w2);
+        let fp = frame_pair(&e.low, (p1, Vector::ZERO), (p2, Vector::ZERO));
+        let (mut gap, mut angular_gap): (Real, Real) = (0.0, 0.0);
+        for r in &e.rows {
+            let c = r.eval(&fp).value.abs();
+            match r {
+                RowKind::Linear { .. } => gap = gap.max(c),
+                RowKind::Angular { .. } => angular_gap = angular_gap.max(c),
+            }
+        }
         let Some(e) = &mut self.joints[i] else { return };
+        e.output.gap = gap;
+        e.output.angular_gap = angular_gap;
         for k in 0..3 {
             // psi and theta are unwrapped; phi = asin(..) never wraps.
             m[3 + k] = if k == 1 {
@@ -675,10 +693,10 @@ fn frame_pair(low: &[Pose; 2], b1: (Pose, Vector), b2: (Pose, Vector)) -> FrameP
     let f2 = b2.0 * low[1];
     FramePair {
         p1: f1.translation,
-        r1: Matrix::from_quat(f1.rotation.into()),
+        r1: Matrix::from_quat(f1.rotation),
         c1: b1.1,
         p2: f2.translation,
-        r2: Matrix::from_quat(f2.rotation.into()),
+        r2: Matrix::from_quat(f2.rotation),
         c2: b2.1,
     }
 }
@@ -691,7 +709,7 @@ fn world_inertia(rb: &RigidBody) -> Matrix {
 /// World inertia tensor of a body at `pose` (kg m^2).
 fn inertia_at(rb: &RigidBody, pose: &Pose) -> Matrix {
     let mp = &rb.mass_properties().local_mprops;
-    let r = Matrix::from_quat((pose.rotation * mp.principal_inertia_local_frame).into());
+    let r = Matrix::from_quat(pose.rotation * mp.principal_inertia_local_frame);
     let ip = mp.principal_inertia();
     r * Matrix::from_diagonal(ip) * r.transpose()
 }

@@ -17,76 +17,29 @@
 //! which is dissipative: its figures are printed and asserted at what it reaches (-31 % energy
 //! at 90 deg, per the Rapier notes), so a change of behaviour is seen.
 //!
+//! The measurements are the library's `metrics::pendulum_study` (the exact period from the
+//! elliptic integral by AGM, zero crossings interpolated linearly where the angular acceleration
+//! vanishes).
+//!
 //! Reaction: at each bottom crossing the recovered rod tension is compared with the exact radial
 //! balance `T = m g cos(theta) + m L thetadot^2` at that state (2 %, the bound; the
 //! reaction is the mean over the last substep while the state is at its end).
 
-mod common;
-
-use common::*;
+use rapier3d_mpc184::metrics::{PendulumReport, pendulum_study};
 use rapier3d_mpc184::prelude::*;
-use rapier3d_mpc184::scenes::{self, G};
 
-struct Run {
-    period_err: Real,
-    drift: Real,
-    oscillation: Real,
-    tension_err: Real,
-}
-
-fn run(backend: Backend, axis: Axis, theta0_deg: Real) -> Run {
-    let theta0 = theta0_deg.to_radians();
-    let settings = WorldSettings {
-        dt: 1.0 / 240.0,
-        substeps: 1,
-        backend,
-    };
-    let mut p = scenes::pendulum(settings, axis, 1.0, theta0, 1.0, 1e-4).unwrap();
-    let exact = pendulum_period(p.pivot_inertia(), p.mass, G, p.length, theta0);
-    let (mut t, mut ang, mut e, mut tens) = (vec![0.0], vec![], vec![], vec![]);
-    let dof = match axis {
-        Axis::X => Dof::RotX,
-        Axis::Z => Dof::RotZ,
-    };
-    // Angle from the vertical: the output angle is relative to the release pose.
-    let angle = |w: &Mpc184World| theta0 + w.output(p.joint).unwrap().dof(dof);
-    ang.push(angle(&p.world));
-    e.push(p.world.kinetic_energy() + p.world.potential_energy());
-    tens.push(0.0);
-    for _ in 0..(20.0 * 240.0) as usize {
-        p.world.step().unwrap();
-        t.push(p.world.time());
-        ang.push(angle(&p.world));
-        e.push(p.world.kinetic_energy() + p.world.potential_energy());
-        tens.push(p.world.output(p.joint).unwrap().force.length());
-    }
-    let crossings = upward_crossings(&t, &ang);
-    let period = mean_period(&crossings);
-    let scale = p.mass * G * p.length;
-    // Tension at the samples nearest each bottom crossing, against the radial balance there.
-    let mut tension_err: Real = 0.0;
-    for i in 1..ang.len() {
-        if ang[i - 1].signum() != ang[i].signum() {
-            let om = (ang[i] - ang[i - 1]) / (t[i] - t[i - 1]);
-            let th = 0.5 * (ang[i] + ang[i - 1]);
-            let exact_t = p.mass * G * th.cos() + p.mass * p.length * om * om;
-            let sim = 0.5 * (tens[i] + tens[i - 1]);
-            tension_err = tension_err.max((sim - exact_t).abs() / exact_t);
-        }
-    }
-    Run {
-        period_err: (period - exact).abs() / exact,
-        drift: secular_drift(&t, &e, &crossings, scale),
-        oscillation: max_oscillation(&e, scale),
-        tension_err,
-    }
-}
-
-fn report(name: &str, r: &Run) {
+fn run(backend: Backend, axis: Axis, theta0_deg: Real) -> PendulumReport {
+    let r = pendulum_study(backend, axis, theta0_deg.to_radians(), 1.0 / 60.0, 4, 20.0).unwrap();
     println!(
-        "{name}: period err {:.2e}, secular drift {:+.2e}, oscillation {:.2e}, tension err {:.2e}",
-        r.period_err, r.drift, r.oscillation, r.tension_err
+        "{} {axis:?} {theta0_deg} deg: period err {:.2e}, secular drift {:+.2e}, oscillation {:.2e}, tension err {:.2e}, gap {:.1e} m",
+        backend.name(),
+        r.period_err,
+        r.drift,
+        r.oscillation,
+        r.tension_err,
+        r.max_gap
     );
+    r
 }
 
 #[test]
@@ -94,12 +47,13 @@ fn multibody_pendulum_keeps_period_and_energy() {
     for axis in [Axis::X, Axis::Z] {
         for deg in [20.0, 90.0] {
             let r = run(Backend::RapierMultibody, axis, deg);
-            report(&format!("multibody {axis:?} {deg} deg"), &r);
             assert!(r.period_err <= 1e-4, "period error {:.3e}", r.period_err);
             assert!(r.drift.abs() <= 1e-4, "secular drift {:.3e}", r.drift);
             // First-order symplectic: bounded oscillation O(h), 5.8e-3 measured at 90 deg.
             assert!(r.oscillation <= 1e-2, "oscillation {:.3e}", r.oscillation);
             assert!(r.tension_err <= 0.02, "tension error {:.3e}", r.tension_err);
+            // Reduced coordinates: the pivot never separates beyond round-off.
+            assert!(r.max_gap <= 1e-12, "pivot gap {:.3e} m", r.max_gap);
         }
     }
 }
@@ -108,12 +62,11 @@ fn multibody_pendulum_keeps_period_and_energy() {
 fn impulse_pendulum_is_dissipative_as_measured() {
     for axis in [Axis::X, Axis::Z] {
         let small = run(Backend::RapierImpulse, axis, 20.0);
-        report(&format!("impulse {axis:?} 20 deg"), &small);
         let big = run(Backend::RapierImpulse, axis, 90.0);
-        report(&format!("impulse {axis:?} 90 deg"), &big);
         // Measured here (one Rapier call per substep of 1/240 s): drift -1.3e-3 (20 deg) and
-        // -1.9e-1 (90 deg, three-period means), period error 1.5e-4 and 4.5e-2. The ranges allow
-        // a factor ~3 either way; outside them Rapier's joint solver has changed.
+        // -1.9e-1 (90 deg, three-period means), period error 1.5e-4 and 4.5e-2, pivot gap
+        // ~1e-4 m at 90 deg. The ranges allow a factor ~3 either way; outside them Rapier's
+        // joint solver has changed.
         assert!(
             (-5e-3..=-3e-4).contains(&small.drift),
             "20 deg drift {:.3e}",
@@ -138,6 +91,11 @@ fn impulse_pendulum_is_dissipative_as_measured() {
             big.tension_err <= 0.02,
             "90 deg tension error {:.3e}",
             big.tension_err
+        );
+        assert!(
+            big.max_gap <= 1e-3,
+            "90 deg pivot gap {:.3e} m",
+            big.max_gap
         );
     }
 }

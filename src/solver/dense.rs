@@ -68,7 +68,7 @@ pub fn cholesky_solve_dropping(a: &mut [Real], b: &mut [Real], n: usize) {
         for k in 0..j {
             d -= a[j * n + k] * a[j * n + k];
         }
-        if !(d > tol) {
+        if d.is_nan() || d <= tol {
             dropped[j] = true;
             for i in j..n {
                 a[i * n + j] = 0.0;
