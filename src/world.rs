@@ -206,13 +206,11 @@ impl Mpc184World {
             if let Some(h) = b
                 && self.physics.bodies.get(h).is_none()
             {
-                {
-                    return Err(Error::InvalidBody {
-                        joint: id,
-                        which,
-                        reason: "no such body".into(),
-                    });
-                }
+                return Err(Error::InvalidBody {
+                    joint: id,
+                    which,
+                    reason: "no such body".into(),
+                });
             }
         }
         match (body1, body2) {

@@ -24,6 +24,10 @@
 //! Reaction: at each bottom crossing the recovered rod tension is compared with the exact radial
 //! balance `T = m g cos(theta) + m L thetadot^2` at that state (2 %, the bound; the
 //! reaction is the mean over the last substep while the state is at its end).
+//!
+//! Tolerances are f64 round-off bounds: the file runs in the default f64 build only
+//! (`tests/f32_smoke.rs` covers the f32 build).
+#![cfg(feature = "f64")]
 
 use rapier3d_mpc184::metrics::{PendulumReport, pendulum_study};
 use rapier3d_mpc184::prelude::*;

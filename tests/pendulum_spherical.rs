@@ -13,6 +13,10 @@
 //! exactly by its reduced coordinates). Rapier's impulse joints dissipate (the orbit sinks and
 //! slows): measured 2.1e-3 rate and 1.6e-2 rad cone error; asserted at 5e-3 / 3e-2 so a
 //! change in Rapier shows up.
+//!
+//! Tolerances are f64 round-off bounds: the file runs in the default f64 build only
+//! (`tests/f32_smoke.rs` covers the f32 build).
+#![cfg(feature = "f64")]
 
 use rapier3d_mpc184::prelude::*;
 use rapier3d_mpc184::scenes::{self, G};

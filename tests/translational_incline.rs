@@ -7,6 +7,10 @@
 //! substeps). Positions use the updated velocity: `s_n = h^2 a n (n + 1) / 2 = a t^2 / 2 +
 //! a t h / 2`, so the travel is checked against `a t^2 / 2` with the bound `h / t` relative
 //! (plus 1e-9), and against the discrete formula to 1e-9.
+//!
+//! Tolerances are f64 round-off bounds: the file runs in the default f64 build only
+//! (`tests/f32_smoke.rs` covers the f32 build).
+#![cfg(feature = "f64")]
 
 use rapier3d_mpc184::prelude::*;
 use rapier3d_mpc184::scenes::{self, G};

@@ -9,6 +9,10 @@
 //! Multibody joints hold a weld exactly (reduced coordinates: no relative coordinates at all),
 //! so 1e-9 (the bound) is round-off. Rapier impulse joints hold it only to the velocity
 //! solver's error; their figure is printed and asserted at 1e-3 m / 1e-3 rad.
+//!
+//! Tolerances are f64 round-off bounds: the file runs in the default f64 build only
+//! (`tests/f32_smoke.rs` covers the f32 build).
+#![cfg(feature = "f64")]
 
 use rapier3d_mpc184::math::rapier::prelude::{MassProperties, RigidBodyBuilder};
 use rapier3d_mpc184::prelude::*;

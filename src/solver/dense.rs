@@ -57,13 +57,11 @@ pub fn least_squares_multipliers(
 /// In-place Cholesky solve (the solution overwrites `b`) of the SPD (or semidefinite) `a` (n x n, row-major); rows whose
 /// pivot falls below a relative tolerance are treated as dependent and solved as zero.
 pub fn cholesky_solve_dropping(a: &mut [Real], b: &mut [Real], n: usize) {
-    let scale = (0..n)
-        .map(|i| a[i * n + i].abs())
-        .fold(0.0, Real::max)
-        .max(Real::MIN_POSITIVE);
-    let tol = scale * 1e3 * Real::EPSILON;
     let mut dropped = vec![false; n];
     for j in 0..n {
+        // Relative to the row's own diagonal: rows of very different scale (forces on a 1 kg
+        // body, moments on a 1e-4 kg m^2 one) share one matrix.
+        let tol = a[j * n + j].abs() * 1e3 * Real::EPSILON;
         let mut d = a[j * n + j];
         for k in 0..j {
             d -= a[j * n + k] * a[j * n + k];
