@@ -4,6 +4,7 @@ pub mod dof;
 pub mod error;
 pub mod joint;
 pub mod kinematics;
+pub mod lagrange;
 pub mod lower;
 pub mod math;
 pub mod metrics;

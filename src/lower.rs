@@ -31,8 +31,11 @@ use crate::math::{Matrix, Rotation, Vector};
     Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize,
 )]
 pub enum Backend {
-    /// Rapier impulse joints (fast, dissipative, any topology).
+    /// This crate's Lagrange-multiplier solver (penalty rows for KEYOPT(2) = 1) on Rapier's
+    /// bodies: exact constraints, exact reactions, linear time for trees, any topology.
     #[default]
+    Lagrange,
+    /// Rapier impulse joints (fast, dissipative, any topology).
     RapierImpulse,
     /// Rapier multibody (reduced-coordinate) joints: exact constraints, trees only, ~N^3 cost.
     RapierMultibody,
@@ -42,6 +45,7 @@ impl Backend {
     /// The command-line name.
     pub const fn name(self) -> &'static str {
         match self {
+            Backend::Lagrange => "lagrange",
             Backend::RapierImpulse => "rapier-impulse",
             Backend::RapierMultibody => "rapier-multibody",
         }
@@ -75,12 +79,16 @@ pub fn rapier_mask(dofs: DofMask, principal: usize) -> JointAxesMask {
     JointAxesMask::from_bits_truncate(bits)
 }
 
-/// What a kind becomes on a Rapier backend: the locked axes, or why it cannot be lowered.
+/// What a kind becomes on a backend: the locked axes of the Rapier joint (empty on the Lagrange
+/// backend, whose Rapier joint only links the bodies' islands), or why it cannot be lowered.
 pub fn lower(
     kind: &JointKind,
     method: ConstraintMethod,
     backend: Backend,
 ) -> Result<JointAxesMask, Error> {
+    if backend == Backend::Lagrange {
+        return lagrange_support(kind).map(|()| JointAxesMask::empty());
+    }
     if let ConstraintMethod::Penalty { .. } = method {
         return Err(Error::Unsupported {
             what: format!(
@@ -140,6 +148,48 @@ pub fn lower(
             hint: "a spotweld has no rigid rows, only TB,JOIN stiffness; use the Lagrange backend"
                 .into(),
         }),
+    }
+}
+
+/// The kinds the Lagrange backend imposes today.
+fn lagrange_support(kind: &JointKind) -> Result<(), Error> {
+    let locked_rotations = kind
+        .constrained()
+        .iter()
+        .filter(|d| d.is_rotation())
+        .count();
+    match kind {
+        JointKind::Screw { .. } => Err(Error::Unsupported {
+            what: "the screw coupling UZ = pitch * ROTZ".into(),
+            hint: "the coupling row comes with the joint-behaviour work; model a cylindrical z \
+                   joint for now"
+                .into(),
+        }),
+        JointKind::Spotweld => Err(Error::Unsupported {
+            what: "the spotweld 6x6 spring/damper".into(),
+            hint: "a spotweld has no rigid rows, only TB,JOIN stiffness, which comes with the \
+                   joint-behaviour work"
+                .into(),
+        }),
+        JointKind::Genb { .. } if locked_rotations == 1 || locked_rotations == 2 => {
+            Err(Error::Unsupported {
+                what: "a genb joint locking some but not all of its 3-1-3 Euler angles".into(),
+                hint: "use a general joint (KEYOPT(1) = 16), whose rotation rows are Bryant angles"
+                    .into(),
+            })
+        }
+        JointKind::Revolute { .. }
+        | JointKind::Universal
+        | JointKind::Slot
+        | JointKind::PointInPlane
+        | JointKind::Translational
+        | JointKind::Cylindrical { .. }
+        | JointKind::Planar { .. }
+        | JointKind::Weld
+        | JointKind::Orient
+        | JointKind::Spherical
+        | JointKind::General { .. }
+        | JointKind::Genb { .. } => Ok(()),
     }
 }
 

@@ -43,7 +43,11 @@ fn main() -> ExitCode {
         "gap m",
         "us/step"
     );
-    for backend in [Backend::RapierImpulse, Backend::RapierMultibody] {
+    for backend in [
+        Backend::Lagrange,
+        Backend::RapierImpulse,
+        Backend::RapierMultibody,
+    ] {
         for deg in [20.0 as Real, 90.0] {
             match pendulum_study(backend, Axis::Z, deg.to_radians(), 1.0 / 60.0, 4, 20.0) {
                 Ok(r) => println!(

@@ -17,6 +17,7 @@ use crate::dof::Dof;
 use crate::error::{Error, JointId};
 use crate::joint::Mpc184Joint;
 use crate::kinematics::{self, AngleUnwrap};
+use crate::lagrange::{LagrangeDiagnostics, LagrangeState};
 use crate::lower::{self, Backend};
 use crate::math::rapier::dynamics::{
     GenericJointBuilder, ImpulseJointHandle, MultibodyJointHandle, RigidBody, RigidBodyBuilder,
@@ -34,7 +35,7 @@ pub struct WorldSettings {
     pub dt: Real,
     /// Substeps per step (default 4); Rapier is called once per substep.
     pub substeps: usize,
-    /// Joint implementation (default: Rapier impulse joints).
+    /// Joint implementation (default: the Lagrange backend).
     pub backend: Backend,
 }
 
@@ -87,25 +88,25 @@ impl JointOutput {
 }
 
 #[derive(Clone, Copy, Debug)]
-enum RapierJoint {
+pub(crate) enum RapierJoint {
     Impulse(ImpulseJointHandle),
     Multibody(MultibodyJointHandle),
 }
 
 #[derive(Clone, Debug)]
-struct JointEntry {
-    joint: Mpc184Joint,
-    body1: RigidBodyHandle,
-    body2: RigidBodyHandle,
+pub(crate) struct JointEntry {
+    pub(crate) joint: Mpc184Joint,
+    pub(crate) body1: RigidBodyHandle,
+    pub(crate) body2: RigidBodyHandle,
     /// Frame I in body 1's local coordinates, frame J in body 2's.
-    ansys: [Pose; 2],
+    pub(crate) ansys: [Pose; 2],
     /// The lowering frames (coincident at time 0) in each body's local coordinates.
-    low: [Pose; 2],
-    rapier: RapierJoint,
-    rows: Vec<RowKind>,
-    unwrap: [AngleUnwrap; 3],
-    initial: [Real; 6],
-    output: JointOutput,
+    pub(crate) low: [Pose; 2],
+    pub(crate) rapier: RapierJoint,
+    pub(crate) rows: Vec<RowKind>,
+    pub(crate) unwrap: [AngleUnwrap; 3],
+    pub(crate) initial: [Real; 6],
+    pub(crate) output: JointOutput,
 }
 
 #[derive(Clone, Copy, Debug, Default)]
@@ -145,8 +146,9 @@ pub struct Mpc184World {
     pub physics: PhysicsWorld,
     settings: WorldSettings,
     ground: Option<RigidBodyHandle>,
-    joints: Vec<Option<JointEntry>>,
-    time: Real,
+    pub(crate) joints: Vec<Option<JointEntry>>,
+    pub(crate) time: Real,
+    pub(crate) lagrange: LagrangeState,
     last_h: Real,
     starts: Vec<(RigidBodyHandle, BodyStart)>,
     gyro_added: Vec<(RigidBodyHandle, Vector)>,
@@ -170,6 +172,7 @@ impl Mpc184World {
             starts: Vec::new(),
             gyro_added: Vec::new(),
             started: false,
+            lagrange: LagrangeState::default(),
         }
     }
 
@@ -237,7 +240,17 @@ impl Mpc184World {
         if body2.is_none() {
             joint.node2 = joint.node1;
         }
-        let mask = lower::lower(&joint.kind, joint.method, self.settings.backend)?;
+        let mut mask = lower::lower(&joint.kind, joint.method, self.settings.backend)?;
+        if self.settings.backend == Backend::Lagrange {
+            // Where Rapier can express the joint exactly, its own rows ride along inside Rapier's
+            // step: they do no work on the velocities our solve already made consistent, but
+            // when a contact acts they keep contact and joint consistent within Rapier's solver
+            // (otherwise contact and joint alternate between our solve and Rapier's, and a body
+            // resting on a floor creeps).
+            if let Ok(m) = lower::lower(&joint.kind, joint.method, Backend::RapierImpulse) {
+                mask = m;
+            }
+        }
         let b1 = match body1 {
             Some(h) => h,
             None => self.ground(),
@@ -259,7 +272,9 @@ impl Mpc184World {
             .contacts_enabled(false)
             .build();
         let rapier = match self.settings.backend {
-            Backend::RapierImpulse => {
+            // The Lagrange backend's Rapier joint has no locked axis: it only puts the two bodies
+            // in one island (they sleep and wake together) and stops them colliding.
+            Backend::Lagrange | Backend::RapierImpulse => {
                 RapierJoint::Impulse(self.physics.impulse_joints.insert(b1, b2, generic, true))
             }
             Backend::RapierMultibody => {
@@ -292,6 +307,7 @@ impl Mpc184World {
                 rb.set_allow_fast_rotation(true);
             }
         }
+        self.lagrange.dirty = true;
         let rows = rows::lock_rows(joint.kind.constrained())
             .map(|(_, r)| r)
             .collect();
@@ -322,6 +338,7 @@ impl Mpc184World {
             .get_mut(id.0 as usize)
             .and_then(Option::take)
             .ok_or(Error::UnknownJoint(id))?;
+        self.lagrange.dirty = true;
         match entry.rapier {
             RapierJoint::Impulse(h) => {
                 self.physics.impulse_joints.remove(h, true);
@@ -422,11 +439,15 @@ impl Mpc184World {
         self.last_h = h;
         self.physics.integration_parameters.dt = h;
         self.physics.integration_parameters.num_solver_iterations = 1;
-        for s in 0..n {
-            let last = s + 1 == n;
-            self.begin_substep(last);
-            self.physics.step();
-            self.end_substep();
+        if self.settings.backend == Backend::Lagrange {
+            self.lagrange_step(h, n)?;
+        } else {
+            for s in 0..n {
+                let last = s + 1 == n;
+                self.begin_substep(last);
+                self.physics.step();
+                self.end_substep();
+            }
         }
         self.time += self.settings.dt;
         for (h, rb) in self.physics.bodies.iter() {
@@ -445,7 +466,11 @@ impl Mpc184World {
                 });
             }
         }
-        self.recover_reactions();
+        if self.settings.backend == Backend::Lagrange {
+            self.lagrange_reactions();
+        } else {
+            self.recover_reactions();
+        }
         for i in 0..self.joints.len() {
             self.refresh_output(i);
         }
@@ -622,6 +647,40 @@ impl Mpc184World {
         self.starts = starts;
     }
 
+    /// Reactions from the Lagrange multipliers of the last substep.
+    fn lagrange_reactions(&mut self) {
+        let h = self.last_h;
+        for (ji, e) in self.joints.iter_mut().enumerate() {
+            let Some(e) = e else { continue };
+            let (mut f, mut tau) = (Vector::ZERO, Vector::ZERO);
+            if let Some(rows) = self.lagrange.rows_of(ji) {
+                let pose1 = *self.physics.bodies[e.body1].position();
+                let pose2 = *self.physics.bodies[e.body2].position();
+                let c1 = self.physics.bodies[e.body1].center_of_mass();
+                let c2 = self.physics.bodies[e.body2].center_of_mass();
+                let fp = frame_pair(&e.low, (pose1, c1), (pose2, c2));
+                for (row, r) in e.rows.iter().zip(rows) {
+                    let ev = row.eval(&fp);
+                    let m = self.lagrange.impulse[r] / h;
+                    f += ev.j2[0] * m;
+                    tau += ev.j2[1] * m;
+                }
+            }
+            let rb2 = &self.physics.bodies[e.body2];
+            let pose1 = self.physics.bodies[e.body1].position();
+            let node_j = *rb2.position() * e.ansys[1].translation;
+            let axes_i = Matrix::from_quat(pose1.rotation * e.ansys[0].rotation);
+            let moment = tau - (node_j - rb2.center_of_mass()).cross(f);
+            e.output.force = axes_i.transpose() * f;
+            e.output.moment = axes_i.transpose() * moment;
+        }
+    }
+
+    /// Diagnostics of the Lagrange backend (redundant rows, projection residual, warnings).
+    pub fn lagrange_diagnostics(&self) -> &LagrangeDiagnostics {
+        &self.lagrange.diagnostics
+    }
+
     /// Absolute measures of a joint now, and the three wrapped Bryant angles.
     fn measures(&self, e: &JointEntry) -> ([Real; 6], [Real; 3]) {
         let p1 = self.physics.bodies[e.body1].position();
@@ -686,7 +745,7 @@ impl Mpc184World {
     }
 }
 
-fn frame_pair(low: &[Pose; 2], b1: (Pose, Vector), b2: (Pose, Vector)) -> FramePair {
+pub(crate) fn frame_pair(low: &[Pose; 2], b1: (Pose, Vector), b2: (Pose, Vector)) -> FramePair {
     let f1 = b1.0 * low[0];
     let f2 = b2.0 * low[1];
     FramePair {

@@ -1,2 +1,3 @@
 //! Linear algebra for constraint solves.
 pub mod dense;
+pub mod kkt;
