@@ -108,6 +108,8 @@ pub(crate) struct LagrangeState {
     value: Vec<Real>,
     kin: Vec<Real>,
     penalty: Vec<bool>,
+    /// Penalty stiffness per row (0 on Lagrange rows).
+    kpen: Vec<Real>,
     rhs_b: Vec<[Real; 6]>,
     rhs_j: Vec<Real>,
     /// Applied impulse per row accumulated over the current substep (N s).
@@ -180,6 +182,8 @@ impl Mpc184World {
         ls.value = vec![0.0; nr];
         ls.kin = vec![0.0; nr];
         ls.penalty = vec![false; nr];
+        ls.kpen = vec![0.0; nr];
+
         ls.rhs_j = vec![0.0; nr];
         ls.impulse = vec![0.0; nr];
         ls.bodies = bodies;
@@ -268,6 +272,7 @@ impl Mpc184World {
                     RowKind::Angular { .. } => kr,
                 };
                 ls.penalty[r] = k_pen.is_some();
+                ls.kpen[r] = k_pen.unwrap_or(0.0);
                 ls.compliance[r] = k_pen.map_or(0.0, |k| 1.0 / (k * h * h));
             }
         }
@@ -410,16 +415,21 @@ impl Mpc184World {
             let ls = &mut self.lagrange;
             residual = 0.0;
             for r in 0..ls.value.len() {
-                if !ls.penalty[r] {
-                    residual = Real::max(residual, ls.value[r].abs());
-                }
+                // Lagrange rows are projected onto C = 0, penalty rows onto their elastic
+                // deflection C = -f / k under the row force f of this substep so far (velocity
+                // solve plus projection: the KKT compliance 1 / (k h^2) is exactly the
+                // derivative of that target, so the chord iteration stays consistent).
+                let dev = if ls.kpen[r] > 0.0 {
+                    ls.value[r] + ls.impulse[r] / (h * ls.kpen[r])
+                } else {
+                    ls.value[r]
+                };
+                residual = Real::max(residual, dev.abs());
+                ls.rhs_j[r] = -dev;
             }
             if residual <= tol || it == MAX_PROJECTION_ITERATIONS {
                 iterations = it;
                 break;
-            }
-            for r in 0..ls.rhs_j.len() {
-                ls.rhs_j[r] = if ls.penalty[r] { 0.0 } else { -ls.value[r] };
             }
             for b in ls.rhs_b.iter_mut() {
                 *b = [0.0; 6];
