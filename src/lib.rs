@@ -1,4 +1,5 @@
 #![doc = include_str!("../README.md")]
+pub mod benchmarks;
 pub mod catalogue;
 pub mod dof;
 pub mod error;
