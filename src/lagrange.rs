@@ -46,6 +46,9 @@ pub const DEFAULT_PENALTY_DISP: Real = 1e8;
 /// Default penalty stiffness on rotations (N m/rad).
 pub const DEFAULT_PENALTY_ROT: Real = 1e8;
 
+/// Relative regularisation of hard (Lagrange) rows, see `lagrange_rows`.
+const REGULARISATION: Real = 1e-8;
+
 /// Largest number of chord iterations of the position projection per substep.
 const MAX_PROJECTION_ITERATIONS: usize = 40;
 
@@ -110,6 +113,13 @@ pub(crate) struct LagrangeState {
     penalty: Vec<bool>,
     /// Penalty stiffness per row (0 on Lagrange rows).
     kpen: Vec<Real>,
+    /// Scale of the hard rows' regularisation (raised by a failing projection).
+    reg_scale: Real,
+    /// The last projection step, to undo it: body states before it, its displacement and
+    /// multipliers.
+    backup: Vec<BodyState>,
+    last_x: Vec<[Real; 6]>,
+    last_lambda: Vec<Real>,
     rhs_b: Vec<[Real; 6]>,
     rhs_j: Vec<Real>,
     /// Applied impulse per row accumulated over the current substep (N s).
@@ -183,6 +193,10 @@ impl Mpc184World {
         ls.kin = vec![0.0; nr];
         ls.penalty = vec![false; nr];
         ls.kpen = vec![0.0; nr];
+        ls.reg_scale = 1.0;
+        ls.backup = vec![BodyState::default(); bodies.len()];
+        ls.last_x = vec![[0.0; 6]; bodies.len()];
+        ls.last_lambda = vec![0.0; nr];
 
         ls.rhs_j = vec![0.0; nr];
         ls.impulse = vec![0.0; nr];
@@ -273,7 +287,25 @@ impl Mpc184World {
                 };
                 ls.penalty[r] = k_pen.is_some();
                 ls.kpen[r] = k_pen.unwrap_or(0.0);
-                ls.compliance[r] = k_pen.map_or(0.0, |k| 1.0 / (k * h * h));
+                ls.compliance[r] = match k_pen {
+                    Some(k) => 1.0 / (k * h * h),
+                    // A relative regularisation of the hard rows (`REGULARISATION` times the
+                    // row's own effective inverse mass): it bounds the multipliers in directions
+                    // that become dependent at a singular pose (a parallelogram four-bar passing
+                    // its aligned position) and changes the solution of a well-posed system by
+                    // that relative amount only.
+                    None => {
+                        let mut a = 0.0;
+                        for (slot, jb) in [(i1, ev.j1), (i2, ev.j2)] {
+                            if let Some(i) = slot {
+                                let s = &ls.st[i];
+                                a += jb[0].length_squared() / s.mass
+                                    + jb[1].dot(s.inertia_inv * jb[1]);
+                            }
+                        }
+                        REGULARISATION * ls.reg_scale * a
+                    }
+                };
             }
         }
     }
@@ -410,6 +442,12 @@ impl Mpc184World {
         for s in self.lagrange.shift.iter_mut() {
             *s = [0.0; 6];
         }
+        // Chord iterations on the start-of-substep factorisation. Should one increase the
+        // residual (near a singular pose, where the start-of-substep directions lose rank), it is
+        // undone and the projection continues as damped Gauss-Newton: refactorised at the current
+        // configuration with a regularisation raised tenfold at every further failure.
+        let mut previous = Real::INFINITY;
+        let mut newton = false;
         for it in 0..=MAX_PROJECTION_ITERATIONS {
             self.lagrange_rows(h, false);
             let ls = &mut self.lagrange;
@@ -431,6 +469,28 @@ impl Mpc184World {
                 iterations = it;
                 break;
             }
+            if residual > previous || !residual.is_finite() {
+                // Undo the last step.
+                ls.st.copy_from_slice(&ls.backup);
+                for i in 0..nb {
+                    for (acc, d) in ls.shift[i].iter_mut().zip(ls.last_x[i]) {
+                        *acc -= d;
+                    }
+                }
+                for r in 0..ls.impulse.len() {
+                    ls.impulse[r] += ls.last_lambda[r] / h;
+                }
+                ls.reg_scale = if newton { ls.reg_scale * 10.0 } else { 1.0 };
+                newton = true;
+                previous = Real::INFINITY;
+                continue;
+            }
+            if newton {
+                self.lagrange_rows(h, true);
+                self.lagrange_factor(h)?;
+                self.lagrange_rows(h, false);
+            }
+            let ls = &mut self.lagrange;
             for b in ls.rhs_b.iter_mut() {
                 *b = [0.0; 6];
             }
@@ -439,11 +499,14 @@ impl Mpc184World {
             };
             kkt.solve(&mut ls.rhs_b, &mut ls.rhs_j)
                 .map_err(|e| kkt_err(e, time))?;
+            ls.backup.copy_from_slice(&ls.st);
+            ls.last_lambda.copy_from_slice(&ls.rhs_j);
             for r in 0..ls.rhs_j.len() {
                 ls.impulse[r] -= ls.rhs_j[r] / h;
             }
             for i in 0..nb {
                 let x = ls.rhs_b[i];
+                ls.last_x[i] = x;
                 let s = &mut ls.st[i];
                 let (dx, dth) = (Vector::new(x[0], x[1], x[2]), Vector::new(x[3], x[4], x[5]));
                 displace(s, dx, dth);
@@ -451,7 +514,9 @@ impl Mpc184World {
                     *acc += d;
                 }
             }
+            previous = residual;
         }
+        self.lagrange.reg_scale = 1.0;
         {
             let ls = &mut self.lagrange;
             ls.diagnostics.projection_iterations = iterations;

@@ -1,0 +1,195 @@
+//! `cargo run --release --bin joint_bench -- [--quick]`
+//!
+//! The Lagrange backend side by side with Rapier's impulse and multibody joints on the scenes of
+//! the solver issue (single thread, f64): the 90 deg pendulum, revolute chains of 10, 100 and
+//! 1000 links with end-mass ratios 1:1 and 1:1000, the Bricard mechanism (IFToMM A04) and the
+//! parallelogram four-bar (IFToMM A02, one window). Prints a table per scene; `--quick` skips the
+//! 1000-link chains.
+
+use std::time::Instant;
+
+use rapier3d_mpc184::benchmarks::{self, Benchmark};
+use rapier3d_mpc184::metrics::pendulum_study;
+use rapier3d_mpc184::prelude::*;
+
+const BACKENDS: [Backend; 3] = [
+    Backend::Lagrange,
+    Backend::RapierImpulse,
+    Backend::RapierMultibody,
+];
+
+fn main() {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    if args.iter().any(|a| a == "--help" || a == "-h") {
+        println!(
+            "joint_bench: Lagrange backend vs Rapier impulse and multibody joints\n\nOPTIONS:\n    --quick   skip the 1000-link chains\n    --help    this text"
+        );
+        return;
+    }
+    let quick = args.iter().any(|a| a == "--quick");
+    pendulum();
+    chains(quick);
+    let settings = |backend| WorldSettings {
+        dt: 1.0 / 100.0,
+        substeps: 4,
+        backend,
+    };
+    mechanism(
+        "Bricard (A04), dt 1/100, 4 substeps, 10 s",
+        |b| benchmarks::bricard(settings(b)),
+        10.0,
+    );
+    let settings60 = |backend| WorldSettings {
+        dt: 1.0 / 60.0,
+        substeps: 4,
+        backend,
+    };
+    mechanism(
+        "parallelogram four-bar (A02, one window), dt 1/60, 4 substeps, 10 s",
+        |b| benchmarks::four_bar_parallelogram(settings60(b)),
+        10.0,
+    );
+}
+
+fn pendulum() {
+    println!(
+        "\n## pendulum 1 m, 90 deg, 20 s, dt 1/60, 4 substeps (drift and oscillation / m g L)"
+    );
+    println!(
+        "{:<18} {:>10} {:>11} {:>10} {:>10} {:>10} {:>9}",
+        "backend", "T err", "drift", "osc", "tension", "gap m", "us/step"
+    );
+    for backend in BACKENDS {
+        match pendulum_study(
+            backend,
+            Axis::Z,
+            90f64.to_radians() as Real,
+            1.0 / 60.0,
+            4,
+            20.0,
+        ) {
+            Ok(r) => println!(
+                "{:<18} {:>10.2e} {:>+11.2e} {:>10.2e} {:>10.2e} {:>10.1e} {:>9.2}",
+                backend.name(),
+                r.period_err,
+                r.drift,
+                r.oscillation,
+                r.tension_err,
+                r.max_gap,
+                r.us_per_step
+            ),
+            Err(e) => println!("{:<18} {e}", backend.name()),
+        }
+    }
+}
+
+/// Runs a scene for `secs`, returning (max gap, secular drift (mean of the last second minus
+/// the first, / scale), us per step, status).
+fn run(
+    b: &mut Benchmark,
+    secs: Real,
+    mut each: impl FnMut(&Benchmark),
+) -> (Real, Real, Real, String) {
+    let dt = b.world.settings().dt;
+    let steps = (secs / dt).round() as usize;
+    let per_sec = (1.0 / dt).round() as usize;
+    let (mut gap, mut energies) = (0.0 as Real, Vec::with_capacity(steps));
+    let mut busy = 0.0;
+    let mut status = "ok".to_string();
+    for s in 0..steps {
+        let t0 = Instant::now();
+        let r = b.world.step();
+        busy += t0.elapsed().as_secs_f64();
+        if let Err(e) = r {
+            status = format!("failed at step {s}: {e}");
+            break;
+        }
+        let g = b.max_gap().unwrap_or(Real::NAN);
+        gap = gap.max(g);
+        energies.push(b.energy());
+        each(b);
+        if !g.is_finite()
+            || g > 10.0
+            || (b.energy() - b.initial_energy).abs() > 100.0 * b.energy_scale
+        {
+            status = format!("blew up at t = {:.2} s", b.world.time());
+            break;
+        }
+    }
+    let n = energies.len();
+    let drift = if n >= 2 * per_sec {
+        let first: Real = energies[..per_sec].iter().sum::<Real>() / per_sec as Real;
+        let last: Real = energies[n - per_sec..].iter().sum::<Real>() / per_sec as Real;
+        (last - first) / b.energy_scale
+    } else {
+        Real::NAN
+    };
+    (gap, drift, busy * 1e6 / n.max(1) as Real, status)
+}
+
+fn chains(quick: bool) {
+    println!(
+        "\n## revolute chains, 0.1 m links of 0.01 kg, released at 20 deg, 10 s, dt 1/60, 4 substeps"
+    );
+    println!(
+        "(drift: mean energy over the last second minus the first, / potential drop to the vertical)"
+    );
+    println!(
+        "{:<18} {:>5} {:>6} {:>10} {:>11} {:>10}  status",
+        "backend", "N", "ratio", "gap m", "drift", "us/step"
+    );
+    let sizes: &[usize] = if quick { &[10, 100] } else { &[10, 100, 1000] };
+    for &n in sizes {
+        for ratio in [1.0, 1000.0] {
+            for backend in BACKENDS {
+                // Multibody chains cost ~N^3: skip them beyond 100 links.
+                if backend == Backend::RapierMultibody && n > 100 {
+                    continue;
+                }
+                let settings = WorldSettings {
+                    dt: 1.0 / 60.0,
+                    substeps: 4,
+                    backend,
+                };
+                let secs = if n >= 1000 { 2.0 } else { 10.0 };
+                match benchmarks::chain(settings, n, 0.1, 0.01, ratio, 20f64.to_radians() as Real) {
+                    Ok(mut b) => {
+                        let (gap, drift, us, status) = run(&mut b, secs, |_| {});
+                        println!(
+                            "{:<18} {n:>5} {ratio:>6} {gap:>10.1e} {drift:>+11.2e} {us:>10.1}  {status} ({secs} s)",
+                            backend.name()
+                        );
+                    }
+                    Err(e) => println!("{:<18} {n:>5} {ratio:>6} {e}", backend.name()),
+                }
+            }
+        }
+    }
+}
+
+fn mechanism(title: &str, build: impl Fn(Backend) -> Result<Benchmark, Error>, secs: Real) {
+    println!("\n## {title}");
+    println!(
+        "{:<18} {:>10} {:>11} {:>10} {:>12} {:>12}  status",
+        "backend", "gap m", "drift", "us/step", "last speed", "body-2 turn"
+    );
+    for backend in BACKENDS {
+        match build(backend) {
+            Ok(mut b) => {
+                let second = b.bodies[1];
+                let r0 = b.world.physics.bodies[second].rotation().to_owned();
+                let mut turn: Real = 0.0;
+                let (gap, drift, us, status) = run(&mut b, secs, |b| {
+                    let r = b.world.physics.bodies[second].rotation();
+                    turn = turn.max((r0.inverse() * *r).to_axis_angle().1.abs());
+                });
+                let speed = b.probe_velocity().length();
+                println!(
+                    "{:<18} {gap:>10.1e} {drift:>+11.2e} {us:>10.1} {speed:>12.3e} {turn:>12.2e}  {status}",
+                    backend.name()
+                );
+            }
+            Err(e) => println!("{:<18} {e}", backend.name()),
+        }
+    }
+}
