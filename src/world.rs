@@ -27,6 +27,7 @@ use crate::math::rapier::pipeline::PhysicsWorld;
 use crate::math::{Matrix, Pose, Real, Vector};
 use crate::rows::{self, FramePair, RowKind};
 use crate::solver::dense;
+use crate::solver::kkt::{JointBlockSpec, KktSolver};
 
 /// Settings of a world (time step, substeps, backend).
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -153,6 +154,7 @@ pub struct Mpc184World {
     starts: Vec<(RigidBodyHandle, BodyStart)>,
     gyro_added: Vec<(RigidBodyHandle, Vector)>,
     started: bool,
+    recovery: Option<KktSolver>,
 }
 
 impl Mpc184World {
@@ -172,6 +174,7 @@ impl Mpc184World {
             starts: Vec::new(),
             gyro_added: Vec::new(),
             started: false,
+            recovery: None,
             lagrange: LagrangeState::default(),
         }
     }
@@ -480,9 +483,10 @@ impl Mpc184World {
     fn begin_substep(&mut self, record: bool) {
         self.starts.clear();
         let mut touched: Vec<RigidBodyHandle> = Vec::new();
+        let mut seen = std::collections::HashSet::new();
         for e in self.joints.iter().flatten() {
             for b in [e.body1, e.body2] {
-                if self.physics.bodies[b].is_dynamic() && !touched.contains(&b) {
+                if self.physics.bodies[b].is_dynamic() && seen.insert(b) {
                     touched.push(b);
                 }
             }
@@ -577,19 +581,20 @@ impl Mpc184World {
     fn recover_reactions(&mut self) {
         let h = self.last_h;
         let starts = core::mem::take(&mut self.starts);
-        let index_of = |b: RigidBodyHandle| starts.iter().position(|(x, _)| *x == b);
+        let index: std::collections::HashMap<RigidBodyHandle, usize> =
+            starts.iter().enumerate().map(|(i, (b, _))| (*b, i)).collect();
         // Body blocks: M_b and the impulse p_b.
         let nb = starts.len();
-        let mut mass = vec![[[0.0 as Real; 6]; 6]; nb];
+        let mut mass = vec![[0.0 as Real; 36]; nb];
         let mut impulse = vec![[0.0 as Real; 6]; nb];
         for (i, (b, s)) in starts.iter().enumerate() {
             let rb = &self.physics.bodies[*b];
             let m = rb.mass();
             let inertia = inertia_at(rb, &s.pose);
             for k in 0..3 {
-                mass[i][k][k] = m;
+                mass[i][6 * k + k] = m;
                 for l in 0..3 {
-                    mass[i][3 + k][3 + l] = inertia.col(l)[k];
+                    mass[i][6 * (3 + k) + 3 + l] = inertia.col(l)[k];
                 }
             }
             let (v, w) = self.body_velocity(*b);
@@ -598,34 +603,50 @@ impl Mpc184World {
             impulse[i] = [p.x, p.y, p.z, l.x, l.y, l.z];
         }
         // Rows at the substep start, the configuration Rapier built its own rows at.
-        let mut jac: Vec<[Real; 12]> = Vec::new();
-        let mut cols: Vec<[Option<usize>; 2]> = Vec::new();
+        let mut specs = Vec::new();
+        let mut jac: Vec<Real> = Vec::new();
         let mut owner: Vec<(usize, rows::RowEval)> = Vec::new();
         for (ji, e) in self.joints.iter().enumerate() {
             let Some(e) = e else { continue };
-            let pose_of = |b: RigidBodyHandle| match index_of(b) {
-                Some(i) => (starts[i].1.pose, starts[i].1.com),
+            if e.rows.is_empty() {
+                continue;
+            }
+            let pose_of = |b: RigidBodyHandle| match index.get(&b) {
+                Some(&i) => (starts[i].1.pose, starts[i].1.com),
                 None => {
                     let rb = &self.physics.bodies[b];
                     (*rb.position(), rb.center_of_mass())
                 }
             };
             let f = frame_pair(&e.low, pose_of(e.body1), pose_of(e.body2));
+            specs.push(JointBlockSpec {
+                rows: e.rows.len(),
+                bodies: [index.get(&e.body1).copied(), index.get(&e.body2).copied()],
+            });
             for r in &e.rows {
                 let ev = r.eval(&f);
-                let mut row = [0.0; 12];
-                for k in 0..3 {
-                    row[k] = ev.j1[0][k];
-                    row[3 + k] = ev.j1[1][k];
-                    row[6 + k] = ev.j2[0][k];
-                    row[9 + k] = ev.j2[1][k];
+                for half in [ev.j1, ev.j2] {
+                    jac.extend_from_slice(&[half[0].x, half[0].y, half[0].z]);
+                    jac.extend_from_slice(&[half[1].x, half[1].y, half[1].z]);
                 }
-                jac.push(row);
-                cols.push([index_of(e.body1), index_of(e.body2)]);
                 owner.push((ji, ev));
             }
         }
-        let mu = dense::least_squares_multipliers(&mass, &impulse, &jac, &cols);
+        // (J M^-1 J^T) mu = J M^-1 p: the KKT system with f = p, g = 0 and no compliance.
+        let mut mu = vec![0.0 as Real; owner.len()];
+        let rebuild = self.recovery.as_ref().is_none_or(|k| k.joint_specs() != specs.as_slice() || k.num_bodies() != nb);
+        if rebuild {
+            self.recovery = KktSolver::new(nb, &specs).ok();
+        }
+        let compliance = vec![0.0 as Real; owner.len()];
+        if let Some(kkt) = self.recovery.as_mut()
+            && kkt.factor(&mass, &jac, &compliance).is_ok()
+            && kkt.solve(&mut impulse, &mut mu).is_ok()
+        {
+            // mu now holds the multipliers (impulses, N s).
+        } else {
+            mu.iter_mut().for_each(|m| *m = 0.0);
+        }
         // Accumulate each joint's wrench on body 2 and express it at node J in frame I.
         let mut wrench: Vec<(Vector, Vector)> =
             vec![(Vector::ZERO, Vector::ZERO); self.joints.len()];
