@@ -98,6 +98,8 @@ pub struct LagrangeDiagnostics {
 #[derive(Default)]
 pub(crate) struct LagrangeState {
     pub(crate) dirty: bool,
+    /// Number of colliders when the topology was built (a change rebuilds it).
+    colliders: usize,
     bodies: Vec<RigidBodyHandle>,
     index: HashMap<RigidBodyHandle, usize>,
     /// KKT block k -> world joint index.
@@ -149,8 +151,33 @@ fn kkt_err(e: crate::solver::kkt::KktError, time: Real) -> Error {
 }
 
 impl Mpc184World {
-    /// Rebuilds the body index and the KKT structure after joints were added or removed.
+    /// Rebuilds the body index and the KKT structure after joints (or colliders) were added or
+    /// removed.
     fn lagrange_topology(&mut self) -> Result<(), Error> {
+        // Rapier's own copy of a joint's rows rides along only where a contact can act (either
+        // body has a collider): elsewhere it would cost a Rapier joint solve for nothing.
+        for e in self.joints.iter().flatten() {
+            let crate::world::RapierJoint::Impulse(handle) = e.rapier else {
+                continue;
+            };
+            let touches = [e.body1, e.body2]
+                .iter()
+                .any(|b| !self.physics.bodies[*b].colliders().is_empty());
+            let mask = match crate::lower::lower(
+                &e.joint.kind,
+                e.joint.method,
+                crate::lower::Backend::RapierImpulse,
+            ) {
+                Ok(m) if touches => m,
+                _ => crate::math::rapier::dynamics::JointAxesMask::empty(),
+            };
+            if let Some(j) = self.physics.impulse_joints.get_mut(handle, false)
+                && j.data.locked_axes != mask
+            {
+                j.data.lock_axes(mask);
+            }
+        }
+        self.lagrange.colliders = self.physics.colliders.len();
         let mut bodies = Vec::new();
         let mut index = HashMap::new();
         let mut specs = Vec::new();
@@ -238,17 +265,18 @@ impl Mpc184World {
         let Some(kkt) = ls.kkt.as_ref() else { return };
         for (k, &j) in ls.blocks.iter().enumerate() {
             let Some(e) = &self.joints[j] else { continue };
-            let side = |b: RigidBodyHandle| -> (Pose, Vector, Option<usize>) {
-                match ls.index.get(&b) {
-                    Some(&i) => (ls.st[i].pose, ls.st[i].com, Some(i)),
+            let slots = kkt.joint_specs()[k].bodies;
+            let side = |b: RigidBodyHandle, slot: Option<usize>| -> (Pose, Vector, Option<usize>) {
+                match slot {
+                    Some(i) => (ls.st[i].pose, ls.st[i].com, Some(i)),
                     None => {
                         let rb = &self.physics.bodies[b];
                         (*rb.position(), rb.center_of_mass(), None)
                     }
                 }
             };
-            let (p1, c1, i1) = side(e.body1);
-            let (p2, c2, i2) = side(e.body2);
+            let (p1, c1, i1) = side(e.body1, slots[0]);
+            let (p2, c2, i2) = side(e.body2, slots[1]);
             let f = frame_pair(&e.low, (p1, c1), (p2, c2));
             let (kd, kr) = match e.joint.method {
                 ConstraintMethod::Lagrange => (None, None),
@@ -336,8 +364,9 @@ impl Mpc184World {
         if report.redundant_rows > 0 && !ls.warned_redundant {
             ls.warned_redundant = true;
             ls.diagnostics.warnings.push(format!(
-                "t = {time}: {} redundant constraint row(s) dropped (their multipliers are carried \
-                 by the rows they depend on)",
+                "t = {time}: {} redundant constraint row(s): the constraint Jacobian is rank \
+                 deficient, the multipliers of the dependent rows are not unique (the solve \
+                 regularises them; the motion is unaffected)",
                 report.redundant_rows
             ));
         }
@@ -360,12 +389,13 @@ impl Mpc184World {
                 let jr = &ls.jac[JAC_ROW_STRIDE * r..JAC_ROW_STRIDE * (r + 1)];
                 force += Vector::new(jr[6], jr[7], jr[8]) * (ls.impulse[r] / h);
             }
-            let p = match ls.index.get(&e.body2) {
-                Some(&i) => (ls.st[i].pose * e.low[1]).translation,
+            let slots = kkt.joint_specs()[k].bodies;
+            let p = match slots[1] {
+                Some(i) => (ls.st[i].pose * e.low[1]).translation,
                 None => (*self.physics.bodies[e.body2].position() * e.low[1]).translation,
             };
-            for b in [e.body1, e.body2] {
-                if let Some(&i) = ls.index.get(&b) {
+            {
+                for i in slots.into_iter().flatten() {
                     let r = (p - ls.st[i].com).length();
                     load[i].0 += force.length() * r;
                     load[i].1 = load[i].1.max(r);
@@ -586,9 +616,26 @@ impl Mpc184World {
         Ok(())
     }
 
+    /// Counts the redundant hard rows once per topology: one factorisation without the
+    /// regularisation (which otherwise keeps every pivot away from zero) and a warning.
+    fn lagrange_redundancy_check(&mut self, h: Real) -> Result<(), Error> {
+        let saved = self.lagrange.compliance.clone();
+        for (c, &k) in self.lagrange.compliance.iter_mut().zip(&self.lagrange.kpen) {
+            if k == 0.0 {
+                *c = 0.0;
+            }
+        }
+        let result = self.lagrange_factor(h);
+        self.lagrange.compliance = saved;
+        result
+    }
+
     /// Runs the Lagrange backend over one step of `n` substeps.
     pub(crate) fn lagrange_step(&mut self, h: Real, n: usize) -> Result<(), Error> {
-        if self.lagrange.dirty || self.lagrange.kkt.is_none() {
+        let rebuilt = self.lagrange.dirty
+            || self.lagrange.kkt.is_none()
+            || self.lagrange.colliders != self.physics.colliders.len();
+        if rebuilt {
             self.lagrange_topology()?;
         }
         self.lagrange.diagnostics.projection_residual = 0.0;
@@ -596,6 +643,9 @@ impl Mpc184World {
         // by the user between steps).
         self.lagrange_gather();
         self.lagrange_rows(h, true);
+        if rebuilt {
+            self.lagrange_redundancy_check(h)?;
+        }
         self.lagrange_factor(h)?;
         for _ in 0..n {
             self.lagrange_substep(h)?;

@@ -243,17 +243,12 @@ impl Mpc184World {
         if body2.is_none() {
             joint.node2 = joint.node1;
         }
-        let mut mask = lower::lower(&joint.kind, joint.method, self.settings.backend)?;
-        if self.settings.backend == Backend::Lagrange {
-            // Where Rapier can express the joint exactly, its own rows ride along inside Rapier's
-            // step: they do no work on the velocities our solve already made consistent, but
-            // when a contact acts they keep contact and joint consistent within Rapier's solver
-            // (otherwise contact and joint alternate between our solve and Rapier's, and a body
-            // resting on a floor creeps).
-            if let Ok(m) = lower::lower(&joint.kind, joint.method, Backend::RapierImpulse) {
-                mask = m;
-            }
-        }
+        // On the Lagrange backend the Rapier joint starts with no locked axis; where a contact
+        // can act, the Lagrange topology pass gives it the joint's own rows: they do no work on
+        // the velocities our solve already made consistent, but keep contact and joint
+        // consistent inside Rapier's solver (otherwise the two alternate between our solve and
+        // Rapier's and a body resting on a floor creeps).
+        let mask = lower::lower(&joint.kind, joint.method, self.settings.backend)?;
         let b1 = match body1 {
             Some(h) => h,
             None => self.ground(),
@@ -581,8 +576,11 @@ impl Mpc184World {
     fn recover_reactions(&mut self) {
         let h = self.last_h;
         let starts = core::mem::take(&mut self.starts);
-        let index: std::collections::HashMap<RigidBodyHandle, usize> =
-            starts.iter().enumerate().map(|(i, (b, _))| (*b, i)).collect();
+        let index: std::collections::HashMap<RigidBodyHandle, usize> = starts
+            .iter()
+            .enumerate()
+            .map(|(i, (b, _))| (*b, i))
+            .collect();
         // Body blocks: M_b and the impulse p_b.
         let nb = starts.len();
         let mut mass = vec![[0.0 as Real; 36]; nb];
@@ -634,7 +632,10 @@ impl Mpc184World {
         }
         // (J M^-1 J^T) mu = J M^-1 p: the KKT system with f = p, g = 0 and no compliance.
         let mut mu = vec![0.0 as Real; owner.len()];
-        let rebuild = self.recovery.as_ref().is_none_or(|k| k.joint_specs() != specs.as_slice() || k.num_bodies() != nb);
+        let rebuild = self
+            .recovery
+            .as_ref()
+            .is_none_or(|k| k.joint_specs() != specs.as_slice() || k.num_bodies() != nb);
         if rebuild {
             self.recovery = KktSolver::new(nb, &specs).ok();
         }
