@@ -163,6 +163,30 @@ fn chains(quick: bool) {
                     Err(e) => println!("{:<18} {n:>5} {ratio:>6} {e}", backend.name()),
                 }
             }
+            // Rapier's own cost for the same chain: impulse joints, its internal 4 substeps in one
+            // call, no reaction recovery (the bar the Lagrange backend's cost is compared with).
+            let settings = WorldSettings {
+                dt: 1.0 / 60.0,
+                substeps: 4,
+                backend: Backend::RapierImpulse,
+            };
+            if let Ok(mut b) =
+                benchmarks::chain(settings, n, 0.1, 0.01, ratio, 20f64.to_radians() as Real)
+            {
+                let p = &mut b.world.physics;
+                p.integration_parameters.dt = 1.0 / 60.0;
+                p.integration_parameters.num_solver_iterations = 4;
+                let steps = 60;
+                let t0 = Instant::now();
+                for _ in 0..steps {
+                    p.step();
+                }
+                let us = t0.elapsed().as_secs_f64() * 1e6 / steps as f64;
+                println!(
+                    "{:<18} {n:>5} {ratio:>6} {:>10} {:>11} {us:>10.1}  Rapier alone, 1 s",
+                    "rapier-raw", "-", "-"
+                );
+            }
         }
     }
 }
