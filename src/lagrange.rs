@@ -132,6 +132,13 @@ pub(crate) struct LagrangeState {
     last_lambda: Vec<Real>,
     /// The constraints were found redundant (rank deficient) at the last topology check.
     redundant: bool,
+    /// `value` holds the rows at the current body states (saves one evaluation).
+    fresh_values: bool,
+    /// The factorisation matches the states written back to Rapier at the end of the last
+    /// substep (with this `h`), so the next step can start without refactorising.
+    factor_valid: Option<Real>,
+    written: Vec<(Pose, Vector, Vector)>,
+    has_kinematic: bool,
     /// Position multipliers of this substep's projection (the displacement is `M~^-1 J^T mu`),
     /// the warm start of the next one.
     mu: Vec<Real>,
@@ -216,12 +223,17 @@ impl Mpc184World {
             });
             blocks.push(j);
         }
+        let has_kinematic = self.joints.iter().flatten().any(|e| {
+            self.physics.bodies[e.body1].is_kinematic()
+                || self.physics.bodies[e.body2].is_kinematic()
+        });
         let kkt = KktSolver::new(bodies.len(), &specs).map_err(|e| Error::Unsupported {
             what: format!("the constraint structure: {e}"),
             hint: "a joint carries at most 12 rows".into(),
         })?;
         let nr = kkt.num_rows();
         let ls = &mut self.lagrange;
+        ls.has_kinematic = has_kinematic;
         ls.st = vec![BodyState::default(); bodies.len()];
         ls.mass = vec![[0.0; 36]; bodies.len()];
         ls.rhs_b = vec![[0.0; 6]; bodies.len()];
@@ -238,6 +250,9 @@ impl Mpc184World {
         ls.last_x = vec![[0.0; 6]; bodies.len()];
         ls.last_lambda = vec![0.0; nr];
         ls.mu = vec![0.0; nr];
+        ls.fresh_values = false;
+        ls.factor_valid = None;
+        ls.written = vec![(Pose::IDENTITY, Vector::ZERO, Vector::ZERO); bodies.len()];
 
         ls.rhs_j = vec![0.0; nr];
         ls.impulse = vec![0.0; nr];
@@ -485,6 +500,7 @@ impl Mpc184World {
         let after = self.lagrange_residual(h);
         if !after.is_finite() || after > WARM_START_LIMIT {
             let ls = &mut self.lagrange;
+            ls.fresh_values = false;
             ls.st.copy_from_slice(&ls.backup);
             for r in 0..ls.mu.len() {
                 ls.impulse[r] -= ls.mu[r] / h;
@@ -497,6 +513,7 @@ impl Mpc184World {
     /// Largest deviation of any row from its projection target at the current state.
     fn lagrange_residual(&mut self, h: Real) -> Real {
         self.lagrange_rows(h, false);
+        self.lagrange.fresh_values = true;
         let ls = &self.lagrange;
         let mut residual: Real = 0.0;
         for r in 0..ls.value.len() {
@@ -575,7 +592,9 @@ impl Mpc184World {
         let mut previous = Real::INFINITY;
         let mut newton = false;
         for it in 0..=MAX_PROJECTION_ITERATIONS {
-            self.lagrange_rows(h, false);
+            if !core::mem::take(&mut self.lagrange.fresh_values) {
+                self.lagrange_rows(h, false);
+            }
             let ls = &mut self.lagrange;
             residual = 0.0;
             for r in 0..ls.value.len() {
@@ -710,7 +729,9 @@ impl Mpc184World {
             rb.set_position(s.pose, false);
             rb.set_linvel(s.linvel, false);
             rb.set_angvel(s.angvel, false);
+            self.lagrange.written[i] = (s.pose, s.linvel, s.angvel);
         }
+        self.lagrange.factor_valid = Some(h);
         Ok(())
     }
 
@@ -738,14 +759,26 @@ impl Mpc184World {
             self.lagrange_topology()?;
         }
         self.lagrange.diagnostics.projection_residual = 0.0;
-        // The factorisation at the start of the step (poses or velocities may have been changed
-        // by the user between steps).
+        // The factorisation at the start of the step, unless the last substep's still holds:
+        // same h, no kinematic body, and every body exactly as it was written back (the user
+        // may have moved bodies or changed velocities between steps).
         self.lagrange_gather();
-        self.lagrange_rows(h, true);
-        if rebuilt {
-            self.lagrange_redundancy_check(h)?;
+        let ls = &self.lagrange;
+        let unchanged = !rebuilt
+            && !ls.has_kinematic
+            && ls.factor_valid == Some(h)
+            && ls
+                .st
+                .iter()
+                .zip(&ls.written)
+                .all(|(s, w)| s.pose == w.0 && s.linvel == w.1 && s.angvel == w.2);
+        if !unchanged {
+            self.lagrange_rows(h, true);
+            if rebuilt {
+                self.lagrange_redundancy_check(h)?;
+            }
+            self.lagrange_factor(h)?;
         }
-        self.lagrange_factor(h)?;
         for _ in 0..n {
             self.lagrange_substep(h)?;
         }
