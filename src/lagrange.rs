@@ -343,7 +343,7 @@ impl Mpc184World {
                 }
                 ls.kin[r] = kin;
                 let k_pen = match row {
-                    RowKind::Linear { .. } => kd,
+                    RowKind::Linear { .. } | RowKind::Screw { .. } => kd,
                     RowKind::Angular { .. } => kr,
                 };
                 ls.penalty[r] = k_pen.is_some();
@@ -732,7 +732,30 @@ impl Mpc184World {
             self.lagrange.written[i] = (s.pose, s.linvel, s.angvel);
         }
         self.lagrange.factor_valid = Some(h);
+        self.update_screw_references();
         Ok(())
+    }
+
+    /// Moves every screw row's unwrapping reference to the current rotation (a screw may turn
+    /// any number of times; each substep turns it by far less than pi).
+    pub(crate) fn update_screw_references(&mut self) {
+        for e in self.joints.iter_mut().flatten() {
+            if !e.rows.iter().any(|r| matches!(r, RowKind::Screw { .. })) {
+                continue;
+            }
+            let b1 = &self.physics.bodies[e.body1];
+            let b2 = &self.physics.bodies[e.body2];
+            let f = frame_pair(
+                &e.low,
+                (*b1.position(), b1.center_of_mass()),
+                (*b2.position(), b2.center_of_mass()),
+            );
+            for r in e.rows.iter_mut() {
+                if let RowKind::Screw { reference, .. } = r {
+                    *reference = crate::rows::screw_angle(&f, *reference);
+                }
+            }
+        }
     }
 
     /// Counts the redundant hard rows once per topology: one factorisation without the

@@ -159,12 +159,6 @@ fn lagrange_support(kind: &JointKind) -> Result<(), Error> {
         .filter(|d| d.is_rotation())
         .count();
     match kind {
-        JointKind::Screw { .. } => Err(Error::Unsupported {
-            what: "the screw coupling UZ = pitch * ROTZ".into(),
-            hint: "the coupling row comes with the joint-behaviour work; model a cylindrical z \
-                   joint for now"
-                .into(),
-        }),
         JointKind::Spotweld => Err(Error::Unsupported {
             what: "the spotweld 6x6 spring/damper".into(),
             hint: "a spotweld has no rigid rows, only TB,JOIN stiffness, which comes with the \
@@ -189,6 +183,7 @@ fn lagrange_support(kind: &JointKind) -> Result<(), Error> {
         | JointKind::Orient
         | JointKind::Spherical
         | JointKind::General { .. }
+        | JointKind::Screw { .. }
         | JointKind::Genb { .. } => Ok(()),
     }
 }

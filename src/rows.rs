@@ -12,6 +12,10 @@
 //! | ROTY | `e1 . f3` | `= sin(phi)`: exactly MPC184's universal-joint rule (`e1I.e3J` held) |
 //! | ROTZ | `e1 . f2` | `= -cos(phi) sin(theta)`: zero iff theta is |
 //!
+//! The screw joint adds the coupled row `u_z - p theta = 0` (`u_z = e3 . (p2 - p1)`, `theta`
+//! the relative rotation about e3, unwrapped past +-pi from the last known value), with
+//! `J1 = (-e3, -(p2 - c1) x e3 + p e3)`, `J2 = (e3, (p2 - c2) x e3 - p e3)`.
+//!
 //! A row's Jacobian acts on body velocities `(v, w)` (world frame, at the centre of mass):
 //! linear rows `J1 = (-e, -(p2 - c1) x e)`, `J2 = (e, (p2 - c2) x e)`; angular rows with
 //! `n = a x b`: `J1 = (0, n)`, `J2 = (0, -n)`. A multiplier `lambda` applies `J^T lambda`
@@ -21,7 +25,7 @@ use crate::dof::{Dof, DofMask};
 use crate::math::{Matrix, Real, Vector};
 
 /// The geometry of one row.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub enum RowKind {
     /// `e_axis . (p2 - p1)`.
     Linear {
@@ -35,6 +39,24 @@ pub enum RowKind {
         /// Axis of frame 2.
         b: usize,
     },
+    /// The screw coupling `e3 . (p2 - p1) - pitch * theta`.
+    Screw {
+        /// Axial travel per radian (m/rad).
+        pitch: Real,
+        /// The last unwrapped rotation about e3 (rad): the branch `theta` is taken on.
+        reference: Real,
+    },
+}
+
+/// The relative rotation about e3 of frame 2 from frame 1 (`-atan2(e1 . f2, e1 . f1)`, the
+/// Bryant angle theta), unwrapped to lie within pi of `reference` (rad).
+pub fn screw_angle(f: &FramePair, reference: Real) -> Real {
+    let e1 = f.r1.col(0);
+    let wrapped = -(e1.dot(f.r2.col(1))).atan2(e1.dot(f.r2.col(0)));
+    let two_pi = 2.0 * crate::math::PI;
+    let mut d = wrapped - reference;
+    d -= two_pi * (d / two_pi).round();
+    reference + d
 }
 
 impl RowKind {
@@ -54,6 +76,18 @@ impl RowKind {
 /// The lock rows of a set of constrained DOFs, in ANSYS order.
 pub fn lock_rows(constrained: DofMask) -> impl Iterator<Item = (Dof, RowKind)> {
     constrained.iter().map(|d| (d, RowKind::lock(d)))
+}
+
+/// Every row of a joint kind: its lock rows and, for the screw, the coupling row.
+pub fn joint_rows(kind: &crate::catalogue::JointKind) -> Vec<RowKind> {
+    let mut rows: Vec<RowKind> = lock_rows(kind.constrained()).map(|(_, r)| r).collect();
+    if let crate::catalogue::JointKind::Screw { pitch } = kind {
+        rows.push(RowKind::Screw {
+            pitch: *pitch,
+            reference: 0.0,
+        });
+    }
+    rows
 }
 
 /// World-frame state of the two frames a row is measured between.
@@ -95,6 +129,15 @@ impl RowKind {
                     value: e.dot(d),
                     j1: [-e, -(f.p2 - f.c1).cross(e)],
                     j2: [e, (f.p2 - f.c2).cross(e)],
+                }
+            }
+            RowKind::Screw { pitch, reference } => {
+                let e = f.r1.col(2);
+                let d = f.p2 - f.p1;
+                RowEval {
+                    value: e.dot(d) - pitch * screw_angle(f, reference),
+                    j1: [-e, -(f.p2 - f.c1).cross(e) + e * pitch],
+                    j2: [e, (f.p2 - f.c2).cross(e) - e * pitch],
                 }
             }
             RowKind::Angular { a, b } => {

@@ -306,9 +306,7 @@ impl Mpc184World {
             }
         }
         self.lagrange.dirty = true;
-        let rows = rows::lock_rows(joint.kind.constrained())
-            .map(|(_, r)| r)
-            .collect();
+        let rows = rows::joint_rows(&joint.kind);
         let mut entry = JointEntry {
             joint,
             body1: b1,
@@ -733,7 +731,7 @@ impl Mpc184World {
         for r in &e.rows {
             let c = r.eval(&fp).value.abs();
             match r {
-                RowKind::Linear { .. } => gap = gap.max(c),
+                RowKind::Linear { .. } | RowKind::Screw { .. } => gap = gap.max(c),
                 RowKind::Angular { .. } => angular_gap = angular_gap.max(c),
             }
         }
