@@ -2,6 +2,8 @@
 pub mod benchmarks;
 pub mod catalogue;
 pub mod dof;
+#[cfg(feature = "ecs")]
+pub mod ecs;
 pub mod error;
 pub mod joint;
 pub mod kinematics;

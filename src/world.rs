@@ -346,6 +346,27 @@ impl Mpc184World {
         Ok(entry.joint)
     }
 
+    /// Removes a body, every joint attached to it first, and its colliders. Returns the ids of
+    /// the joints removed with it.
+    pub fn remove_body(&mut self, body: RigidBodyHandle) -> Vec<JointId> {
+        let attached: Vec<JointId> = self
+            .joints
+            .iter()
+            .enumerate()
+            .filter_map(|(i, e)| {
+                e.as_ref()
+                    .filter(|e| e.body1 == body || e.body2 == body)
+                    .map(|_| JointId(i as u32))
+            })
+            .collect();
+        for id in &attached {
+            let _ = self.remove_joint(*id);
+        }
+        self.physics.remove_body_with_colliders(body, true);
+        self.lagrange.dirty = true;
+        attached
+    }
+
     /// The joint description.
     pub fn joint(&self, id: JointId) -> Result<&Mpc184Joint, Error> {
         self.entry(id).map(|e| &e.joint)
