@@ -130,7 +130,7 @@ fn run(
     } else {
         Real::NAN
     };
-    (gap, drift, busy * 1e6 / n.max(1) as Real, status)
+    (gap, drift, (busy * 1e6 / n.max(1) as f64) as Real, status)
 }
 
 fn chains(quick: bool) {
