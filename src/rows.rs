@@ -1,9 +1,12 @@
 //! Scalar constraint rows of a joint, in MPC184's terms.
 //!
-//! Every row is measured between two frames that coincide at time 0 (see [`crate::lower`]):
-//! frame 1 attached to body 1 and frame 2 attached to body 2, both at node J's initial position
-//! with frame I's initial axes. With `e_k` the axes of frame 1, `f_k` those of frame 2, `p1`,
-//! `p2` their origins:
+//! Every row is measured between frame 1, attached to body 1 at node J's initial position with
+//! frame I's axes, and frame 2, the local system at node J attached to body 2 (its axes default
+//! to frame I's). Each row holds its initial value: zero for the translations (the origins
+//! coincide) and for rotations whose frames start aligned; when the system at J is turned against
+//! the one at I, the dot products below keep their initial values, which is MPC184's rule (the
+//! universal joint: "the angle between e1 of I and e3 of J is held at its initial value").
+//! With `e_k` the axes of frame 1, `f_k` those of frame 2, `p1`, `p2` their origins:
 //!
 //! | DOF | constraint `C = 0` | why this form |
 //! |---|---|---|
@@ -32,19 +35,24 @@ pub enum RowKind {
         /// Axis of frame 1 (0 = e1).
         axis: usize,
     },
-    /// `e_a . f_b` (axis `a` of frame 1 dotted with axis `b` of frame 2).
+    /// `e_a . f_b - target` (axis `a` of frame 1 dotted with axis `b` of frame 2, held at its
+    /// initial value).
     Angular {
         /// Axis of frame 1.
         a: usize,
         /// Axis of frame 2.
         b: usize,
+        /// The value held: `e_a . f_b` at time 0 (0 when the two frames start aligned).
+        target: Real,
     },
-    /// The screw coupling `e3 . (p2 - p1) - pitch * theta`.
+    /// The screw coupling `e3 . (p2 - p1) - pitch * (theta - theta0)`.
     Screw {
         /// Axial travel per radian (m/rad).
         pitch: Real,
         /// The last unwrapped rotation about e3 (rad): the branch `theta` is taken on.
         reference: Real,
+        /// The rotation at time 0 (rad).
+        theta0: Real,
     },
 }
 
@@ -66,9 +74,21 @@ impl RowKind {
             Dof::Ux => RowKind::Linear { axis: 0 },
             Dof::Uy => RowKind::Linear { axis: 1 },
             Dof::Uz => RowKind::Linear { axis: 2 },
-            Dof::RotX => RowKind::Angular { a: 1, b: 2 },
-            Dof::RotY => RowKind::Angular { a: 0, b: 2 },
-            Dof::RotZ => RowKind::Angular { a: 0, b: 1 },
+            Dof::RotX => RowKind::Angular {
+                a: 1,
+                b: 2,
+                target: 0.0,
+            },
+            Dof::RotY => RowKind::Angular {
+                a: 0,
+                b: 2,
+                target: 0.0,
+            },
+            Dof::RotZ => RowKind::Angular {
+                a: 0,
+                b: 1,
+                target: 0.0,
+            },
         }
     }
 }
@@ -85,6 +105,7 @@ pub fn joint_rows(kind: &crate::catalogue::JointKind) -> Vec<RowKind> {
         rows.push(RowKind::Screw {
             pitch: *pitch,
             reference: 0.0,
+            theta0: 0.0,
         });
     }
     rows
@@ -131,21 +152,25 @@ impl RowKind {
                     j2: [e, (f.p2 - f.c2).cross(e)],
                 }
             }
-            RowKind::Screw { pitch, reference } => {
+            RowKind::Screw {
+                pitch,
+                reference,
+                theta0,
+            } => {
                 let e = f.r1.col(2);
                 let d = f.p2 - f.p1;
                 RowEval {
-                    value: e.dot(d) - pitch * screw_angle(f, reference),
+                    value: e.dot(d) - pitch * (screw_angle(f, reference) - theta0),
                     j1: [-e, -(f.p2 - f.c1).cross(e) + e * pitch],
                     j2: [e, (f.p2 - f.c2).cross(e) - e * pitch],
                 }
             }
-            RowKind::Angular { a, b } => {
+            RowKind::Angular { a, b, target } => {
                 let u = f.r1.col(a);
                 let w = f.r2.col(b);
                 let n = u.cross(w);
                 RowEval {
-                    value: u.dot(w),
+                    value: u.dot(w) - target,
                     j1: [Vector::ZERO, n],
                     j2: [Vector::ZERO, -n],
                 }

@@ -262,11 +262,14 @@ impl Mpc184World {
         let ansys1 = pose1.inverse() * Pose::from_parts(joint.node1, joint.axes1);
         let ansys2 = pose2.inverse() * Pose::from_parts(joint.node2, joint.axes2());
         let low_world = Pose::from_parts(joint.node2, joint.axes1);
-        let low = [pose1.inverse() * low_world, pose2.inverse() * low_world];
+        // Rapier's frames coincide at time 0 (both with frame I's axes); our rows measure frame
+        // 2 with the local system at J itself and hold each row's initial value (crate::rows).
+        let rapier_frames = [pose1.inverse() * low_world, pose2.inverse() * low_world];
+        let low = [rapier_frames[0], ansys2];
         let q = lower::principal_rotation(joint.kind.principal_axis());
         let generic = GenericJointBuilder::new(mask)
-            .local_frame1(low[0] * q)
-            .local_frame2(low[1] * q)
+            .local_frame1(rapier_frames[0] * q)
+            .local_frame2(rapier_frames[1] * q)
             .contacts_enabled(false)
             .build();
         let rapier = match self.settings.backend {
@@ -306,7 +309,32 @@ impl Mpc184World {
             }
         }
         self.lagrange.dirty = true;
-        let rows = rows::joint_rows(&joint.kind);
+        let mut rows = rows::joint_rows(&joint.kind);
+        {
+            let (b1r, b2r) = (&self.physics.bodies[b1], &self.physics.bodies[b2]);
+            let f0 = frame_pair(
+                &low,
+                (pose1, b1r.center_of_mass()),
+                (pose2, b2r.center_of_mass()),
+            );
+            for r in rows.iter_mut() {
+                match r {
+                    RowKind::Angular { .. } => {
+                        let value = r.eval(&f0).value;
+                        if let RowKind::Angular { target, .. } = r {
+                            *target = value;
+                        }
+                    }
+                    RowKind::Screw {
+                        reference, theta0, ..
+                    } => {
+                        *theta0 = rows::screw_angle(&f0, 0.0);
+                        *reference = *theta0;
+                    }
+                    RowKind::Linear { .. } => {}
+                }
+            }
+        }
         let mut entry = JointEntry {
             joint,
             body1: b1,
