@@ -123,6 +123,8 @@ pub(crate) struct LagrangeState {
     penalty: Vec<bool>,
     /// Penalty stiffness per row (0 on Lagrange rows).
     kpen: Vec<Real>,
+    /// Prescribed rate of each row over the current substep (drives; 0 elsewhere).
+    rate: Vec<Real>,
     /// Scale of the hard rows' regularisation (raised by a failing projection).
     reg_scale: Real,
     /// The last projection step, to undo it: body states before it, its displacement and
@@ -245,6 +247,7 @@ impl Mpc184World {
         ls.kin = vec![0.0; nr];
         ls.penalty = vec![false; nr];
         ls.kpen = vec![0.0; nr];
+        ls.rate = vec![0.0; nr];
         ls.reg_scale = 1.0;
         ls.backup = vec![BodyState::default(); bodies.len()];
         ls.last_x = vec![[0.0; 6]; bodies.len()];
@@ -344,6 +347,7 @@ impl Mpc184World {
                 ls.kin[r] = kin;
                 let k_pen = match row {
                     RowKind::Linear { .. } | RowKind::Screw { .. } => kd,
+                    RowKind::Drive { .. } => None,
                     RowKind::Angular { .. } => kr,
                 };
                 ls.penalty[r] = k_pen.is_some();
@@ -544,7 +548,7 @@ impl Mpc184World {
             }
             for r in 0..ls.rhs_j.len() {
                 let pen = if ls.penalty[r] { ls.value[r] / h } else { 0.0 };
-                ls.rhs_j[r] = -ls.kin[r] - pen;
+                ls.rhs_j[r] = ls.rate[r] - ls.kin[r] - pen;
             }
             let Some(kkt) = ls.kkt.as_ref() else {
                 return Ok(());
@@ -696,7 +700,7 @@ impl Mpc184World {
                 ls.rhs_b[i] = [mv.x, mv.y, mv.z, mw.x, mw.y, mw.z];
             }
             for r in 0..ls.rhs_j.len() {
-                ls.rhs_j[r] = -ls.kin[r];
+                ls.rhs_j[r] = ls.rate[r] - ls.kin[r];
             }
             let Some(kkt) = ls.kkt.as_ref() else {
                 return Ok(());
@@ -736,11 +740,37 @@ impl Mpc184World {
         Ok(())
     }
 
+    /// Sets every drive row's target to its value at `t1` (the end of the coming substep) and
+    /// its rate to the change over the substep divided by h.
+    fn update_drives(&mut self, t1: Real, h: Real) {
+        let ls = &mut self.lagrange;
+        let Some(kkt) = ls.kkt.as_ref() else { return };
+        for (k, &j) in ls.blocks.iter().enumerate() {
+            let Some(e) = self.joints[j].as_mut() else {
+                continue;
+            };
+            let r0 = kkt.row_offset(k);
+            for (n, row) in e.rows.iter_mut().enumerate() {
+                if let RowKind::Drive { dof, target, .. } = row
+                    && let Some(d) = e.drives.iter().find(|d| d.dof == *dof)
+                {
+                    let (v0, v1) = (d.profile.value(t1 - h), d.profile.value(t1));
+                    *target = v1;
+                    ls.rate[r0 + n] = (v1 - v0) / h;
+                }
+            }
+        }
+    }
+
     /// Moves every screw row's unwrapping reference to the current rotation (a screw may turn
     /// any number of times; each substep turns it by far less than pi).
     pub(crate) fn update_screw_references(&mut self) {
         for e in self.joints.iter_mut().flatten() {
-            if !e.rows.iter().any(|r| matches!(r, RowKind::Screw { .. })) {
+            if !e
+                .rows
+                .iter()
+                .any(|r| matches!(r, RowKind::Screw { .. } | RowKind::Drive { .. }))
+            {
                 continue;
             }
             let b1 = &self.physics.bodies[e.body1];
@@ -751,8 +781,14 @@ impl Mpc184World {
                 (*b2.position(), b2.center_of_mass()),
             );
             for r in e.rows.iter_mut() {
-                if let RowKind::Screw { reference, .. } = r {
-                    *reference = crate::rows::screw_angle(&f, *reference);
+                match r {
+                    RowKind::Screw { reference, .. } => {
+                        *reference = crate::rows::screw_angle(&f, *reference)
+                    }
+                    RowKind::Drive { dof, reference, .. } => {
+                        *reference = crate::rows::dof_measure(&f, *dof, *reference)
+                    }
+                    RowKind::Linear { .. } | RowKind::Angular { .. } => {}
                 }
             }
         }
@@ -802,7 +838,9 @@ impl Mpc184World {
             }
             self.lagrange_factor(h)?;
         }
-        for _ in 0..n {
+        for k in 0..n {
+            let t1 = self.time + (k + 1) as Real * h;
+            self.update_drives(t1, h);
             self.lagrange_substep(h)?;
         }
         Ok(())

@@ -45,6 +45,18 @@ pub enum RowKind {
         /// The value held: `e_a . f_b` at time 0 (0 when the two frames start aligned).
         target: Real,
     },
+    /// A prescribed relative displacement or rotation (DJ): the DOF's value relative to time 0
+    /// minus `target`. Rotations about e1 and e3 are unwrapped like the screw's angle.
+    Drive {
+        /// The driven DOF (a free one).
+        dof: Dof,
+        /// The prescribed value now (m or rad, relative to time 0).
+        target: Real,
+        /// The DOF's absolute measure at time 0.
+        initial: Real,
+        /// The last unwrapped absolute measure (rotations about e1 and e3).
+        reference: Real,
+    },
     /// The screw coupling `e3 . (p2 - p1) - pitch * (theta - theta0)`.
     Screw {
         /// Axial travel per radian (m/rad).
@@ -54,6 +66,25 @@ pub enum RowKind {
         /// The rotation at time 0 (rad).
         theta0: Real,
     },
+}
+
+/// The absolute measure of a DOF between the two frames: `e_k . (p2 - p1)` for a translation,
+/// the Bryant angle for a rotation (psi and theta unwrapped to lie within pi of `reference`).
+pub fn dof_measure(f: &FramePair, dof: Dof, reference: Real) -> Real {
+    let unwrap = |wrapped: Real| {
+        let two_pi = 2.0 * crate::math::PI;
+        let mut d = wrapped - reference;
+        d -= two_pi * (d / two_pi).round();
+        reference + d
+    };
+    let e = |i: usize| f.r1.col(i);
+    let g = |i: usize| f.r2.col(i);
+    match dof {
+        Dof::Ux | Dof::Uy | Dof::Uz => e(dof.axis()).dot(f.p2 - f.p1),
+        Dof::RotX => unwrap(-(g(2).dot(e(1))).atan2(g(2).dot(e(2)))),
+        Dof::RotY => g(2).dot(e(0)).clamp(-1.0, 1.0).asin(),
+        Dof::RotZ => screw_angle(f, reference),
+    }
 }
 
 /// The relative rotation about e3 of frame 2 from frame 1 (`-atan2(e1 . f2, e1 . f1)`, the
@@ -163,6 +194,28 @@ impl RowKind {
                     value: e.dot(d) - pitch * (screw_angle(f, reference) - theta0),
                     j1: [-e, -(f.p2 - f.c1).cross(e) + e * pitch],
                     j2: [e, (f.p2 - f.c2).cross(e) - e * pitch],
+                }
+            }
+            RowKind::Drive {
+                dof,
+                target,
+                initial,
+                reference,
+            } => {
+                let e = f.r1.col(dof.axis());
+                let value = dof_measure(f, dof, reference) - initial - target;
+                if dof.is_rotation() {
+                    RowEval {
+                        value,
+                        j1: [Vector::ZERO, -e],
+                        j2: [Vector::ZERO, e],
+                    }
+                } else {
+                    RowEval {
+                        value,
+                        j1: [-e, -(f.p2 - f.c1).cross(e)],
+                        j2: [e, (f.p2 - f.c2).cross(e)],
+                    }
                 }
             }
             RowKind::Angular { a, b, target } => {

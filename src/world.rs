@@ -50,6 +50,67 @@ impl Default for WorldSettings {
     }
 }
 
+/// A time profile of a prescribed value (m or rad): `from` until `t0`, linear to `to` at `t1`
+/// (ANSYS `KBC,0`, ramped) or a jump at `t0` (`KBC,1`, stepped), `to` afterwards; with
+/// `extend`, the ramp's slope continues past `t1` (a constant-speed drive).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct DriveProfile {
+    /// Start of the ramp (s).
+    pub t0: Real,
+    /// End of the ramp (s).
+    pub t1: Real,
+    /// Value until `t0`.
+    pub from: Real,
+    /// Value at `t1`.
+    pub to: Real,
+    /// A step at `t0` instead of a ramp.
+    pub stepped: bool,
+    /// Keep the ramp's slope after `t1`.
+    pub extend: bool,
+}
+
+impl DriveProfile {
+    /// A constant-rate drive: `rate * t` from time 0.
+    pub fn constant_rate(rate: Real) -> Self {
+        Self {
+            t0: 0.0,
+            t1: 1.0,
+            from: 0.0,
+            to: rate,
+            stepped: false,
+            extend: true,
+        }
+    }
+
+    /// The value at time `t`.
+    pub fn value(&self, t: Real) -> Real {
+        if t <= self.t0 {
+            return self.from;
+        }
+        if self.stepped || self.t1 <= self.t0 {
+            return self.to;
+        }
+        let s = (t - self.t0) / (self.t1 - self.t0);
+        if s >= 1.0 && !self.extend {
+            return self.to;
+        }
+        self.from + s * (self.to - self.from)
+    }
+
+    fn is_finite(&self) -> bool {
+        self.t0.is_finite() && self.t1.is_finite() && self.from.is_finite() && self.to.is_finite()
+    }
+}
+
+/// A drive attached to one DOF of a joint.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Drive {
+    /// The driven DOF.
+    pub dof: Dof,
+    /// Its prescribed value over time.
+    pub profile: DriveProfile,
+}
+
 /// The output of one joint in ANSYS terms, refreshed after every step.
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct JointOutput {
@@ -108,6 +169,7 @@ pub(crate) struct JointEntry {
     pub(crate) unwrap: [AngleUnwrap; 3],
     pub(crate) initial: [Real; 6],
     pub(crate) output: JointOutput,
+    pub(crate) drives: Vec<Drive>,
 }
 
 #[derive(Clone, Copy, Debug, Default)]
@@ -331,7 +393,7 @@ impl Mpc184World {
                         *theta0 = rows::screw_angle(&f0, 0.0);
                         *reference = *theta0;
                     }
-                    RowKind::Linear { .. } => {}
+                    RowKind::Linear { .. } | RowKind::Drive { .. } => {}
                 }
             }
         }
@@ -346,6 +408,7 @@ impl Mpc184World {
             unwrap: [AngleUnwrap::default(); 3],
             initial: [0.0; 6],
             output: JointOutput::default(),
+            drives: Vec::new(),
         };
         let (m, wrapped) = self.measures(&entry);
         entry.unwrap = wrapped.map(AngleUnwrap::new);
@@ -372,6 +435,81 @@ impl Mpc184World {
             }
         }
         Ok(entry.joint)
+    }
+
+    /// Prescribes the relative displacement or rotation of a free DOF (ANSYS `DJ,elem,UX..ROTZ`):
+    /// the DOF's value relative to time 0 follows `profile` exactly (a rheonomic constraint row
+    /// on the Lagrange backend; its multiplier is the driving force or moment). Replaces an
+    /// earlier drive of the same DOF ("the last one set wins").
+    #[doc(alias = "DJ")]
+    pub fn set_drive(&mut self, id: JointId, dof: Dof, profile: DriveProfile) -> Result<(), Error> {
+        if self.settings.backend != Backend::Lagrange {
+            return Err(Error::Unsupported {
+                what: format!(
+                    "a prescribed relative motion (DJ) on the {} backend",
+                    self.settings.backend.name()
+                ),
+                hint: "drives are rows of the Lagrange backend".into(),
+            });
+        }
+        let entry = self
+            .joints
+            .get_mut(id.0 as usize)
+            .and_then(Option::as_mut)
+            .ok_or(Error::UnknownJoint(id))?;
+        if !entry.joint.kind.free().contains(dof) {
+            return Err(Error::InvalidDof {
+                joint: id,
+                dof,
+                reason: format!("not a free DOF of a {} joint", entry.joint.kind.name()),
+            });
+        }
+        if !profile.is_finite() {
+            return Err(Error::InvalidDof {
+                joint: id,
+                dof,
+                reason: "non-finite drive profile".into(),
+            });
+        }
+        entry.drives.retain(|d| d.dof != dof);
+        entry.drives.push(Drive { dof, profile });
+        entry
+            .rows
+            .retain(|r| !matches!(r, RowKind::Drive { dof: d, .. } if *d == dof));
+        // The row measures translations from node J's initial position (0 at time 0) and
+        // rotations as the absolute Bryant angle; the reference is today's unwrapped angle.
+        let (initial, reference) = if dof.is_rotation() {
+            (
+                entry.initial[dof.index()],
+                entry.output.measure[dof.index()],
+            )
+        } else {
+            (0.0, 0.0)
+        };
+        entry.rows.push(RowKind::Drive {
+            dof,
+            target: 0.0,
+            initial,
+            reference,
+        });
+        self.lagrange.dirty = true;
+        Ok(())
+    }
+
+    /// Removes the drive of a DOF (ANSYS `DJDELE`); the DOF is free again.
+    #[doc(alias = "DJDELE")]
+    pub fn remove_drive(&mut self, id: JointId, dof: Dof) -> Result<(), Error> {
+        let entry = self
+            .joints
+            .get_mut(id.0 as usize)
+            .and_then(Option::as_mut)
+            .ok_or(Error::UnknownJoint(id))?;
+        entry.drives.retain(|d| d.dof != dof);
+        entry
+            .rows
+            .retain(|r| !matches!(r, RowKind::Drive { dof: d, .. } if *d == dof));
+        self.lagrange.dirty = true;
+        Ok(())
     }
 
     /// Removes a body, every joint attached to it first, and its colliders. Returns the ids of
@@ -781,6 +919,8 @@ impl Mpc184World {
             let c = r.eval(&fp).value.abs();
             match r {
                 RowKind::Linear { .. } | RowKind::Screw { .. } => gap = gap.max(c),
+                // A drive's error is a tracking error, not a gap.
+                RowKind::Drive { .. } => {}
                 RowKind::Angular { .. } => angular_gap = angular_gap.max(c),
             }
         }
