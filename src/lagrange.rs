@@ -783,10 +783,10 @@ impl Mpc184World {
             for r in e.rows.iter_mut() {
                 match r {
                     RowKind::Screw { reference, .. } => {
-                        *reference = crate::rows::screw_angle(&f, *reference)
+                        *reference = crate::rows::screw_angle(&f, *reference);
                     }
                     RowKind::Drive { dof, reference, .. } => {
-                        *reference = crate::rows::dof_measure(&f, *dof, *reference)
+                        *reference = crate::rows::dof_measure(&f, *dof, *reference);
                     }
                     RowKind::Linear { .. } | RowKind::Angular { .. } => {}
                 }
