@@ -81,6 +81,9 @@ const MAX_DIM: usize = if MAX_JOINT_ROWS > BODY_DOFS {
     BODY_DOFS
 };
 
+/// Number of pivots assembled ahead of their elimination (see [`KktSolver::factor`]).
+const ASSEMBLY_CHUNK: usize = 64;
+
 /// Runs `$body` with the constant `$N` equal to the runtime dimension `$n` (`1..=MAX_DIM`), so
 /// that small dense kernels get compile-time loop bounds.
 macro_rules! by_dim {
@@ -134,6 +137,40 @@ macro_rules! by_dim {
                 const $N: usize = MAX_DIM;
                 $body
             }
+        }
+    };
+}
+
+/// Runs `$body` with the constant `$M` equal to the runtime block height `$m` when it is at most
+/// [`BODY_DOFS`] (the common sizes, so that the block kernels are unrolled), else `$dyn`.
+macro_rules! by_rows {
+    ($m:expr, $M:ident => $body:expr, $dyn:expr) => {
+        match $m {
+            1 => {
+                const $M: usize = 1;
+                $body
+            }
+            2 => {
+                const $M: usize = 2;
+                $body
+            }
+            3 => {
+                const $M: usize = 3;
+                $body
+            }
+            4 => {
+                const $M: usize = 4;
+                $body
+            }
+            5 => {
+                const $M: usize = 5;
+                $body
+            }
+            6 => {
+                const $M: usize = 6;
+                $body
+            }
+            _ => $dyn,
         }
     };
 }
@@ -241,9 +278,10 @@ struct RhsLoc {
 struct Pivot {
     node: KktNode,
     dim: usize,
-    /// Offset of the `dim × dim` diagonal block (pseudo-inverse after factorisation).
+    /// Offset of the diagonal block, packed lower triangle (`tri(dim)` reals, see [`tri`]);
+    /// after factorisation it holds `X = L⁻¹` and `D⁺` (see [`Packed`]).
     diag_off: usize,
-    /// Offset of the `dim` diagonal reference scales.
+    /// Offset of the `dim` diagonal reference scales (`D⁺` after factorisation).
     scale_off: usize,
     rhs: RhsLoc,
     /// Range of this pivot's off-diagonal blocks in `blocks`.
@@ -254,11 +292,12 @@ struct Pivot {
     op_end: usize,
 }
 
-/// Off-diagonal block between a pivot `p` and a later node `j`: `dim(j) × dim(p)`, row-major.
+/// Off-diagonal block between a pivot `p` and a later node `j`: `dim(p) × dim(j)`, row-major
+/// (the transpose `Wᵀ` of the coupling `W` of `j`'s rows with `p`'s).
 #[derive(Clone, Copy, Debug)]
 struct Block {
     off: usize,
-    /// `dim(j)`.
+    /// `dim(j)` (the number of columns; `W` has that many rows).
     rows: usize,
     /// Pivot index of `j`.
     tgt: usize,
@@ -269,7 +308,7 @@ struct Block {
 }
 
 /// Schur update of pivot `p` on the block between two of its later neighbours `j` (earlier) and
-/// `k` (later): `A_kj -= (W_k P⁺) W_jᵀ`.
+/// `k` (later): `A_jk -= W_j P⁺ W_kᵀ`.
 #[derive(Clone, Copy, Debug)]
 struct PairOp {
     /// Block of `k` in `p`'s list.
@@ -284,8 +323,24 @@ struct PairOp {
 #[derive(Clone, Copy, Debug)]
 struct JacTarget {
     off: usize,
-    /// Stored as `6 × m` (body eliminated after the joint) rather than `m × 6`.
+    /// Index of the block.
+    blk: usize,
+    /// Stored as `6 × m` (body eliminated before the joint) rather than `m × 6`.
     transposed: bool,
+    /// Adds to the block (another slot of the same joint wrote it first) instead of
+    /// overwriting it.
+    add: bool,
+}
+
+/// One piece of the numeric assembly.
+#[derive(Clone, Copy, Debug)]
+enum Assembly {
+    /// The diagonal block and scales of a pivot (by index).
+    Diag(usize),
+    /// A Jacobian slot of a joint into its block.
+    Jac { joint: usize, slot: usize },
+    /// A fill block to clear: `(offset, length)` in `offd`.
+    Zero(usize, usize),
 }
 
 /// Why a pivot block could not be factored.
@@ -315,8 +370,16 @@ pub struct KktSolver {
     incidences: usize,
     diag: Vec<Real>,
     scale: Vec<Real>,
+    /// Off-diagonal blocks `Wᵀ`, replaced by `Y = L⁻¹ Π Wᵀ` when their pivot is factored.
     offd: Vec<Real>,
-    tmp: Vec<Real>,
+    /// Permutation of each pivot's `LDLᵀ` (at the pivot's `scale_off`).
+    perms: Vec<u8>,
+    /// Assembly work, bucketed by the first pivot that needs it (its own diagonal block, or the
+    /// first Schur update into a block): the items of pivot `t` are
+    /// `asm[asm_start[t]..asm_start[t + 1]]`. [`Self::factor`] assembles by chunks of pivots
+    /// just ahead of their elimination, so that the data is still in cache.
+    asm: Vec<Assembly>,
+    asm_start: Vec<usize>,
     dropped: Vec<DroppedRow>,
     tol: Real,
     factored: bool,
@@ -443,13 +506,12 @@ impl KktSolver {
         let mut pivots = Vec::with_capacity(order.len());
         let mut blocks = Vec::new();
         let mut edge: HashMap<(usize, usize), usize> = HashMap::new();
-        let (mut diag_len, mut scale_len, mut offd_len, mut tmp_len) = (0, 0, 0, 0);
+        let (mut diag_len, mut scale_len, mut offd_len) = (0, 0, 0);
         for (t, &v) in order.iter().enumerate() {
             let n = dim(v);
             let nbrs = &mut nbr_lists[t];
             nbrs.sort_unstable_by_key(|&j| pos[j]);
             let blk_start = blocks.len();
-            let off_start = offd_len;
             for &j in nbrs.iter() {
                 edge.insert((v, j), blocks.len());
                 blocks.push(Block {
@@ -461,7 +523,6 @@ impl KktSolver {
                 });
                 offd_len += dim(j) * n;
             }
-            tmp_len = tmp_len.max(offd_len - off_start);
             pivots.push(Pivot {
                 node: if v < nb {
                     KktNode::Body(v)
@@ -477,7 +538,7 @@ impl KktSolver {
                 op_start: 0,
                 op_end: 0,
             });
-            diag_len += n * n;
+            diag_len += tri(n);
             scale_len += n;
         }
         let mut ops = Vec::new();
@@ -498,6 +559,7 @@ impl KktSolver {
             pivots[t].op_end = ops.len();
         }
         let mut jac_targets = vec![[None; 2]; nj];
+        let mut written = vec![false; blocks.len()];
         for (k, s) in joints.iter().enumerate() {
             if s.rows == 0 {
                 continue;
@@ -506,15 +568,70 @@ impl KktSolver {
             for (slot, body) in s.bodies.iter().enumerate() {
                 if let Some(b) = *body {
                     let (first, second, transposed) = if pos[b] < pos[vj] {
-                        (b, vj, false)
+                        (b, vj, true)
                     } else {
-                        (vj, b, true)
+                        (vj, b, false)
                     };
-                    let off = blocks[edge[&(first, second)]].off;
-                    jac_targets[k][slot] = Some(JacTarget { off, transposed });
+                    let e = edge[&(first, second)];
+                    let add = std::mem::replace(&mut written[e], true);
+                    jac_targets[k][slot] = Some(JacTarget {
+                        off: blocks[e].off,
+                        blk: e,
+                        transposed,
+                        add,
+                    });
                 }
             }
         }
+        // Just-in-time assembly: a diagonal block before the first pivot that updates it (or
+        // its own), an off-diagonal block before its pivot or the first fill update into it.
+        let np = pivots.len();
+        let mut first_blk = vec![usize::MAX; blocks.len()];
+        let mut first_diag: Vec<usize> = (0..np).collect();
+        for (t, pv) in pivots.iter().enumerate() {
+            for (b, blk) in blocks
+                .iter()
+                .enumerate()
+                .take(pv.blk_end)
+                .skip(pv.blk_start)
+            {
+                first_blk[b] = first_blk[b].min(t);
+                first_diag[blk.tgt] = first_diag[blk.tgt].min(t);
+            }
+            for op in &ops[pv.op_start..pv.op_end] {
+                first_blk[op.dst_blk] = first_blk[op.dst_blk].min(t);
+            }
+        }
+        let mut buckets: Vec<Vec<Assembly>> = vec![Vec::new(); np];
+        for (t, &f) in first_diag.iter().enumerate() {
+            buckets[f].push(Assembly::Diag(t));
+        }
+        for (k, targets) in jac_targets.iter().enumerate() {
+            for (slot, t) in targets.iter().enumerate() {
+                if let Some(t) = t {
+                    buckets[first_blk[t.blk]].push(Assembly::Jac { joint: k, slot });
+                }
+            }
+        }
+        for pv in &pivots {
+            for (b, blk) in blocks
+                .iter()
+                .enumerate()
+                .take(pv.blk_end)
+                .skip(pv.blk_start)
+            {
+                if !written[b] {
+                    buckets[first_blk[b]].push(Assembly::Zero(blk.off, blk.rows * pv.dim));
+                }
+            }
+        }
+        let mut asm_start = Vec::with_capacity(np + 1);
+        let mut asm = Vec::new();
+        for bucket in buckets {
+            asm_start.push(asm.len());
+            asm.extend(bucket);
+        }
+        asm_start.push(asm.len());
         let body_pivot = (0..nb).map(|b| pos[b]).collect();
         let joint_pivot = (0..nj).map(|k| pos[nb + k]).collect();
         Ok(Self {
@@ -531,7 +648,9 @@ impl KktSolver {
             diag: vec![0.0; diag_len],
             scale: vec![0.0; scale_len],
             offd: vec![0.0; offd_len],
-            tmp: vec![0.0; tmp_len],
+            perms: vec![0; scale_len],
+            asm,
+            asm_start,
             dropped: Vec::new(),
             tol: Self::default_redundancy_tolerance(),
             factored: false,
@@ -639,6 +758,98 @@ impl KktSolver {
         check_len("mass", self.nb, mass.len())?;
         check_len("jac", JAC_ROW_STRIDE * rows, jac.len())?;
         check_len("compliance", rows, compliance.len())?;
+        // Assembly (see `asm`) with a fast test that everything read is finite (and the
+        // compliances non-negative), and right-looking block elimination, by chunks of pivots:
+        // the assembly of a chunk streams its inputs (many independent loads in flight), then
+        // its elimination finds the data in cache. The input checks (in the documented order)
+        // run only when the fast test fails, or before reporting an error of the factorisation:
+        // input errors come first, as if they were checked before anything else.
+        let mut ok = true;
+        let mut work = PivotWork::default();
+        let np = self.pivots.len();
+        for c0 in (0..np).step_by(ASSEMBLY_CHUNK) {
+            let c1 = (c0 + ASSEMBLY_CHUNK).min(np);
+            for ai in self.asm_start[c0]..self.asm_start[c1] {
+                ok &= self.assemble(self.asm[ai], mass, jac, compliance);
+            }
+            for pi in c0..c1 {
+                let n = self.pivots[pi].dim;
+                if let Err(e) = by_dim!(n, N => self.eliminate::<N>(pi, &mut work)) {
+                    self.check_inputs(mass, jac, compliance)?;
+                    return Err(e);
+                }
+            }
+        }
+        if !ok {
+            self.check_inputs(mass, jac, compliance)?;
+        }
+        self.factored = true;
+        Ok(FactorReport {
+            redundant_rows: self.dropped.len(),
+        })
+    }
+
+    /// One assembly item; returns whether everything it read is finite (and the compliances
+    /// non-negative).
+    fn assemble(
+        &mut self,
+        item: Assembly,
+        mass: &[[Real; 36]],
+        jac: &[Real],
+        compliance: &[Real],
+    ) -> bool {
+        match item {
+            Assembly::Diag(t) => {
+                let pv = &self.pivots[t];
+                let d = &mut self.diag[pv.diag_off..];
+                let s = &mut self.scale[pv.scale_off..];
+                match pv.node {
+                    KktNode::Body(b) => assemble_body(&mass[b], d, s),
+                    KktNode::Joint(k) => {
+                        let c = &compliance[self.row_off[k]..];
+                        by_dim!(pv.dim, N => assemble_joint::<N>(c, d, s))
+                    }
+                }
+            }
+            Assembly::Jac { joint, slot } => {
+                let (r0, m) = (self.row_off[joint], self.specs[joint].rows);
+                let Some(t) = self.jac_targets[joint][slot] else {
+                    return true;
+                };
+                let src = &jac[JAC_ROW_STRIDE * r0 + BODY_DOFS * slot..];
+                let dst = &mut self.offd[t.off..];
+                by_rows!(m, M => scatter_jac::<M>(src, t, dst), scatter_jac_dyn(m, src, t, dst))
+            }
+            Assembly::Zero(off, len) => {
+                self.offd[off..off + len].fill(0.0);
+                true
+            }
+        }
+    }
+
+    /// The input checks of [`Self::factor`], in order: masses, then each joint's compliance and
+    /// Jacobian. On an error the list of dropped rows is cleared (nothing was factored, as far
+    /// as the caller can tell).
+    fn check_inputs(
+        &mut self,
+        mass: &[[Real; 36]],
+        jac: &[Real],
+        compliance: &[Real],
+    ) -> Result<(), KktError> {
+        let r = self.first_input_error(mass, jac, compliance);
+        if r.is_err() {
+            self.dropped.clear();
+        }
+        r
+    }
+
+    /// The first input error, see [`Self::check_inputs`].
+    fn first_input_error(
+        &self,
+        mass: &[[Real; 36]],
+        jac: &[Real],
+        compliance: &[Real],
+    ) -> Result<(), KktError> {
         for (b, m) in mass.iter().enumerate() {
             if m.iter().any(|v| !v.is_finite()) {
                 return Err(KktError::NonFinite {
@@ -668,138 +879,105 @@ impl KktSolver {
                 }
             }
         }
-
-        // Assembly.
-        for pv in &self.pivots {
-            let n = pv.dim;
-            let d = &mut self.diag[pv.diag_off..pv.diag_off + n * n];
-            let s = &mut self.scale[pv.scale_off..pv.scale_off + n];
-            match pv.node {
-                KktNode::Body(b) => {
-                    let m = &mass[b];
-                    for i in 0..n {
-                        for j in 0..n {
-                            d[i * n + j] = 0.5 * (m[i * 6 + j] + m[j * 6 + i]);
-                        }
-                        s[i] = d[i * n + i].abs();
-                    }
-                }
-                KktNode::Joint(k) => {
-                    d.fill(0.0);
-                    let c = &compliance[self.row_off[k]..self.row_off[k] + n];
-                    for (i, &ci) in c.iter().enumerate() {
-                        d[i * n + i] = -ci;
-                        s[i] = ci;
-                    }
-                }
-            }
-        }
-        self.offd.fill(0.0);
-        for (k, targets) in self.jac_targets.iter().enumerate() {
-            let (r0, m) = (self.row_off[k], self.specs[k].rows);
-            for (slot, t) in targets.iter().enumerate() {
-                let Some(t) = t else { continue };
-                for i in 0..m {
-                    let o = JAC_ROW_STRIDE * (r0 + i) + BODY_DOFS * slot;
-                    for (c, &v) in jac[o..o + BODY_DOFS].iter().enumerate() {
-                        let idx = if t.transposed { c * m + i } else { i * 6 + c };
-                        self.offd[t.off + idx] += v;
-                    }
-                }
-            }
-        }
-
-        // Right-looking block elimination.
-        let mut work = PivotWork::default();
-        for pi in 0..self.pivots.len() {
-            let pv = self.pivots[pi];
-            let n = pv.dim;
-            let body = matches!(pv.node, KktNode::Body(_));
-            let thresh = if body { 64.0 * Real::EPSILON } else { self.tol };
-            let dblk = &mut self.diag[pv.diag_off..pv.diag_off + n * n];
-            let sblk = &self.scale[pv.scale_off..pv.scale_off + n];
-            let rank = match work.factor(dblk, sblk, n, thresh, body) {
-                Ok(r) => r,
-                Err(PivotFail::NonFinite) => return Err(KktError::Breakdown { at: pv.node }),
-                Err(PivotFail::NotPositive) => {
-                    return Err(match pv.node {
-                        KktNode::Body(b) => KktError::NotPositiveDefinite { body: b },
-                        KktNode::Joint(_) => KktError::Breakdown { at: pv.node },
-                    });
-                }
-            };
-            if let (KktNode::Joint(k), true) = (pv.node, rank < n) {
-                self.check_dropped(&work, &pv, rank, k)?;
-                for q in rank..n {
-                    self.dropped.push(DroppedRow {
-                        joint: k,
-                        row: work.perm[q],
-                    });
-                }
-            }
-            if pv.blk_start == pv.blk_end {
-                continue;
-            }
-            by_dim!(n, N => self.schur_update::<N>(pv));
-        }
-        self.factored = true;
-        Ok(FactorReport {
-            redundant_rows: self.dropped.len(),
-        })
+        Ok(())
     }
 
-    /// Schur-complement updates of pivot `pv` (dimension `N`, already factored) on its later
-    /// neighbours.
-    fn schur_update<const N: usize>(&mut self, pv: Pivot) {
-        let n = N;
-        // Later pivots' diagonal blocks lie after this one.
-        let split = pv.diag_off + n * n;
+    /// Factors pivot `pi` (dimension `N`), records its dropped rows and applies its Schur
+    /// updates.
+    fn eliminate<const N: usize>(
+        &mut self,
+        pi: usize,
+        work: &mut PivotWork,
+    ) -> Result<(), KktError> {
+        let pv = self.pivots[pi];
+        let body = matches!(pv.node, KktNode::Body(_));
+        let thresh = if body { 64.0 * Real::EPSILON } else { self.tol };
+        let rank = match work.factor::<N>(
+            &mut self.diag[pv.diag_off..pv.diag_off + tri(N)],
+            &mut self.scale[pv.scale_off..pv.scale_off + N],
+            &mut self.perms[pv.scale_off..pv.scale_off + N],
+            thresh,
+            body,
+        ) {
+            Ok(r) => r,
+            Err(PivotFail::NonFinite) => return Err(KktError::Breakdown { at: pv.node }),
+            Err(PivotFail::NotPositive) => {
+                return Err(match pv.node {
+                    KktNode::Body(b) => KktError::NotPositiveDefinite { body: b },
+                    KktNode::Joint(_) => KktError::Breakdown { at: pv.node },
+                });
+            }
+        };
+        if let (KktNode::Joint(k), true) = (pv.node, rank < N) {
+            self.check_dropped(work, &pv, rank, k)?;
+            for q in rank..N {
+                self.dropped.push(DroppedRow {
+                    joint: k,
+                    row: work.perm[q],
+                });
+            }
+        }
+        if pv.blk_start != pv.blk_end {
+            self.schur_update::<N>(&pv);
+        }
+        // The solve uses `L⁻¹` (no dependency chain); nothing downstream in the factorisation
+        // waits for it.
+        invert_and_pack::<N>(
+            &mut self.diag[pv.diag_off..pv.diag_off + tri(N)],
+            &self.scale[pv.scale_off..pv.scale_off + N],
+        );
+        Ok(())
+    }
+
+    /// Schur-complement updates of pivot `pv` (dimension `N`, already factored as
+    /// `Π P Πᵀ = L D Lᵀ`) on its later neighbours: with `Y_j = L⁻¹ Π W_jᵀ` (stored for the
+    /// solve), `D_j -= Y_jᵀ D⁺ Y_j` and `A_jk -= Y_jᵀ D⁺ Y_k` (an overflow shows up as a
+    /// non-finite pivot later).
+    fn schur_update<const N: usize>(&mut self, pv: &Pivot) {
+        // Later pivots' diagonal blocks and scales lie after this one's.
+        let split = pv.diag_off + tri(N);
         let (head, tail) = self.diag.split_at_mut(split);
-        let pinv = &head[pv.diag_off..];
-        let base = self.blocks[pv.blk_start].off;
-        // T_j = W_j P⁺ (P⁺ is symmetric, so this is W_j P⁺ᵀ).
+        let ssplit = pv.scale_off + N;
+        let (shead, stail) = self.scale.split_at_mut(ssplit);
+        let fac = Factor::<N>::new(
+            &head[pv.diag_off..],
+            &shead[pv.scale_off..],
+            &self.perms[pv.scale_off..],
+        );
         for blk in &self.blocks[pv.blk_start..pv.blk_end] {
-            let len = blk.rows * n;
-            let w = &self.offd[blk.off..blk.off + len];
-            let t = &mut self.tmp[blk.off - base..blk.off - base + len];
-            for (trow, wrow) in t.chunks_exact_mut(n).zip(w.chunks_exact(n)) {
-                for (tv, prow) in trow.iter_mut().zip(pinv.chunks_exact(n)) {
-                    *tv = dot_n::<N>(wrow, prow);
-                }
-            }
+            let (m, len) = (blk.rows, blk.rows * N);
+            let wy = &mut self.offd[blk.off..blk.off + len];
+            let tgt = &self.pivots[blk.tgt];
+            let d = &mut tail[tgt.diag_off - split..tgt.diag_off - split + tri(m)];
+            let s = &mut stail[tgt.scale_off - ssplit..tgt.scale_off - ssplit + m];
+            by_rows!(m, M => fac.block_update::<M>(wy, d, s), fac.block_update_dyn(m, wy, d, s));
         }
-        // Diagonal updates D_j -= T_j W_jᵀ (symmetric: lower triangle, mirrored), with the
-        // reference scales.
-        for blk in &self.blocks[pv.blk_start..pv.blk_end] {
-            let tgt = self.pivots[blk.tgt];
-            let (m, len) = (blk.rows, blk.rows * n);
-            let w = &self.offd[blk.off..blk.off + len];
-            let t = &self.tmp[blk.off - base..blk.off - base + len];
-            let d = &mut tail[tgt.diag_off - split..tgt.diag_off - split + m * m];
-            let s = &mut self.scale[tgt.scale_off..tgt.scale_off + m];
-            for (a, (ta, wa)) in t.chunks_exact(n).zip(w.chunks_exact(n)).enumerate() {
-                for (b, wb) in w.chunks_exact(n).take(a).enumerate() {
-                    let v = d[a * m + b] - dot_n::<N>(ta, wb);
-                    d[a * m + b] = v;
-                    d[b * m + a] = v;
-                }
-                let v = dot_n::<N>(ta, wa);
-                d[a * m + a] -= v;
-                s[a] += v.abs();
-            }
-        }
-        // Off-diagonal (fill) updates A_kj -= T_k W_jᵀ.
+        // Off-diagonal (fill) updates A_jk -= Y_jᵀ D⁺ Y_k.
         for op in &self.ops[pv.op_start..pv.op_end] {
             let (bk, bj, bd) = (
                 self.blocks[op.k_blk],
                 self.blocks[op.j_blk],
                 self.blocks[op.dst_blk],
             );
+            let (mj, mk) = (bj.rows, bk.rows);
             // The destination belongs to a later pivot, so it lies after `p`'s blocks.
             let (lo, hi) = self.offd.split_at_mut(bd.off);
-            let w = &lo[bj.off..bj.off + bj.rows * n];
-            let t = &self.tmp[bk.off - base..bk.off - base + bk.rows * n];
-            sub_mul_nt(&mut hi[..bk.rows * bj.rows], t, w, n);
+            let yk = &lo[bk.off..bk.off + N * mk];
+            let yj = &lo[bj.off..bj.off + N * mj];
+            let dst = &mut hi[..mj * mk];
+            for (a, drow) in dst.chunks_exact_mut(mk).enumerate() {
+                for (((yjc, ykc), &dc), _) in yj
+                    .chunks_exact(mj)
+                    .zip(yk.chunks_exact(mk))
+                    .zip(fac.dinv)
+                    .zip(0..N)
+                {
+                    let c = yjc[a] * dc;
+                    for (x, &v) in drow.iter_mut().zip(ykc) {
+                        *x -= c * v;
+                    }
+                }
+            }
         }
     }
 
@@ -821,10 +999,17 @@ impl KktSolver {
                 if !blk.tgt_body {
                     continue;
                 }
-                let w = &self.offd[blk.off..blk.off + blk.rows * n];
-                let wmax = w.iter().fold(0.0, |a: Real, &x| a.max(x.abs()));
-                for wrow in w.chunks_exact(n) {
-                    if dot(wrow, &v[..n]).abs() > loose * wmax * vnorm {
+                // The stored block is `Wᵀ` (`n × m`): the rows of `W` are its columns.
+                let m = blk.rows;
+                let wt = &self.offd[blk.off..blk.off + m * n];
+                let wmax = wt.iter().fold(0.0, |a: Real, &x| a.max(x.abs()));
+                for c in 0..m {
+                    let wv: Real = wt
+                        .chunks_exact(m)
+                        .zip(&v[..n])
+                        .map(|(row, &vi)| row[c] * vi)
+                        .sum();
+                    if wv.abs() > loose * wmax * vnorm {
                         return Err(KktError::OneSidedRows { joint });
                     }
                 }
@@ -851,11 +1036,12 @@ impl KktSolver {
         check_len("rhs_bodies", self.nb, rhs_bodies.len())?;
         check_len("rhs_joints", self.num_rows(), rhs_joints.len())?;
         let bodies = rhs_bodies.as_flattened_mut();
-        // Forward: z_p final, then rhs_j -= W_j P⁺ z_p.
+        // Forward: z_p final; u_p = D⁺ L⁻¹ Π z_p replaces it, and rhs_j -= Y_j u_p
+        // (= W_j P⁺ z_p).
         for pv in &self.pivots {
             by_dim!(pv.dim, N => self.forward_step::<N>(pv, bodies, rhs_joints));
         }
-        // Backward: x_p = P⁺ (z_p - Σ W_jᵀ x_j).
+        // Backward: x_p = P⁺ (z_p - Σ W_jᵀ x_j) = Πᵀ L⁻ᵀ (u_p - D⁺ Σ Y_jᵀ x_j).
         for pv in self.pivots.iter().rev() {
             by_dim!(pv.dim, N => self.backward_step::<N>(pv, bodies, rhs_joints));
         }
@@ -866,40 +1052,309 @@ impl KktSolver {
 impl KktSolver {
     /// Forward substitution of pivot `pv` (dimension `N`).
     fn forward_step<const N: usize>(&self, pv: &Pivot, bodies: &mut [Real], joints: &mut [Real]) {
-        let pinv = &self.diag[pv.diag_off..pv.diag_off + N * N];
-        let mut u = [0.0; N];
-        let z = seg(pv.rhs, N, bodies, joints);
-        for (ui, prow) in u.iter_mut().zip(pinv.chunks_exact(N)) {
-            *ui = dot_n::<N>(prow, z);
-        }
+        let fac = Packed::<N>::new(&self.diag[pv.diag_off..], &self.perms[pv.scale_off..]);
+        let slot = seg(pv.rhs, N, bodies, joints);
+        let u = fac.scaled(&fac.lower_solve(slot));
+        slot.copy_from_slice(&u);
         for blk in &self.blocks[pv.blk_start..pv.blk_end] {
-            let w = &self.offd[blk.off..blk.off + blk.rows * N];
+            let y = &self.offd[blk.off..blk.off + blk.rows * N];
             let r = seg(blk.rhs, blk.rows, bodies, joints);
-            for (ri, wrow) in r.iter_mut().zip(w.chunks_exact(N)) {
-                *ri -= dot_n::<N>(wrow, &u);
-            }
+            by_rows!(blk.rows, M => sub_mat_t_vec::<N, M>(y, &u, r), sub_mat_t_vec_dyn::<N>(y, &u, r));
         }
     }
 
     /// Backward substitution of pivot `pv` (dimension `N`).
     fn backward_step<const N: usize>(&self, pv: &Pivot, bodies: &mut [Real], joints: &mut [Real]) {
-        let pinv = &self.diag[pv.diag_off..pv.diag_off + N * N];
-        let mut t = [0.0; N];
-        t.copy_from_slice(seg(pv.rhs, N, bodies, joints));
+        let fac = Packed::<N>::new(&self.diag[pv.diag_off..], &self.perms[pv.scale_off..]);
+        let mut acc = [0.0; N];
         for blk in &self.blocks[pv.blk_start..pv.blk_end] {
-            let w = &self.offd[blk.off..blk.off + blk.rows * N];
+            let y = &self.offd[blk.off..blk.off + blk.rows * N];
             let x = seg(blk.rhs, blk.rows, bodies, joints);
-            for (wrow, &xa) in w.chunks_exact(N).zip(x.iter()) {
-                for (tc, &wc) in t.iter_mut().zip(wrow) {
-                    *tc -= wc * xa;
+            by_rows!(blk.rows, M => add_mat_vec::<N, M>(y, x, &mut acc), add_mat_vec_dyn::<N>(y, x, &mut acc));
+        }
+        let slot = seg(pv.rhs, N, bodies, joints);
+        let mut t = [0.0; N];
+        for (((ti, &ui), &ai), &di) in t.iter_mut().zip(slot.iter()).zip(&acc).zip(fac.dinv) {
+            *ti = ui - di * ai;
+        }
+        fac.upper_solve_into(t, slot);
+    }
+}
+
+/// The factors of one pivot block (`Π P Πᵀ = L D Lᵀ`, `P` of dimension `N`) as the
+/// factorisation left them, viewed for the fixed-size kernels of the Schur updates.
+struct Factor<'a, const N: usize> {
+    /// `L` strictly below the diagonal, in the packed lower layout of the diagonal blocks
+    /// (`(i, k)` at `tri(i) + k`; the diagonal is not read).
+    l: &'a [Real],
+    /// `D⁺`: `1 / d_k` for the kept pivots, `0` for the dropped ones.
+    dinv: &'a [Real],
+    /// `perm[i]` is the original row of position `i`.
+    perm: [usize; N],
+}
+
+impl<'a, const N: usize> Factor<'a, N> {
+    /// The factors stored at the start of `l`, `dinv` and `perm` by [`PivotWork::factor`].
+    #[inline(always)]
+    fn new(l: &'a [Real], dinv: &'a [Real], perm: &[u8]) -> Self {
+        let mut p = [0; N];
+        for (d, &s) in p.iter_mut().zip(perm) {
+            // Stored values are `< N`; the clamp only keeps indexing trivially in range.
+            *d = (s as usize).min(N - 1);
+        }
+        Self {
+            l: &l[..tri(N)],
+            dinv: &dinv[..N],
+            perm: p,
+        }
+    }
+
+    /// For one off-diagonal block `Wᵀ` (`N × M`, in `wy`) towards a later node with diagonal
+    /// block `d` (`M × M`, packed lower triangle) and scales `s`: replaces it with
+    /// `Y = L⁻¹ Π Wᵀ` and applies `d -= Yᵀ D⁺ Y`, `s += |diag(Yᵀ D⁺ Y)|`.
+    #[inline(always)]
+    #[allow(
+        clippy::needless_range_loop,
+        reason = "index loops with compile-time bounds, fully unrolled"
+    )]
+    fn block_update<const M: usize>(&self, wy: &mut [Real], d: &mut [Real], s: &mut [Real]) {
+        // Fixed-size views, so that every loop below has compile-time bounds.
+        let (y, _) = wy[..N * M].as_chunks_mut::<M>();
+        let d = &mut d[..tri(M)];
+        let s = &mut s[..M];
+        let mut yt = [[0.0; M]; N];
+        for i in 0..N {
+            yt[i] = y[self.perm[i]];
+        }
+        for k in 0..N {
+            for i in 0..N {
+                if i > k {
+                    let c = self.l[tri(i) + k];
+                    for b in 0..M {
+                        yt[i][b] -= c * yt[k][b];
+                    }
                 }
             }
         }
-        let out = seg(pv.rhs, N, bodies, joints);
-        for (o, prow) in out.iter_mut().zip(pinv.chunks_exact(N)) {
-            *o = dot_n::<N>(prow, &t);
+        y[..N].copy_from_slice(&yt);
+        // D -= Yᵀ D⁺ Y, lower triangle only (the diagonal blocks are only read there, see
+        // [`PivotWork::factor`]), as dot products of the columns of `Y`.
+        let mut yc = [[0.0; N]; M];
+        let mut ych = [[0.0; N]; M];
+        for k in 0..N {
+            for b in 0..M {
+                yc[b][k] = yt[k][b];
+                ych[b][k] = yt[k][b] * self.dinv[k];
+            }
+        }
+        for a in 0..M {
+            for b in 0..M {
+                if b < a {
+                    d[tri(a) + b] -= dot_n::<N>(&ych[a], &yc[b]);
+                }
+            }
+            let v = dot_n::<N>(&ych[a], &yc[a]);
+            d[tri(a) + a] -= v;
+            s[a] += v.abs();
         }
     }
+
+    /// [`Self::block_update`] for a block of `m <= MAX_DIM` columns (any size).
+    fn block_update_dyn(&self, m: usize, wy: &mut [Real], d: &mut [Real], s: &mut [Real]) {
+        let mut yt = [[0.0; MAX_DIM]; N];
+        for (row, &p) in yt.iter_mut().zip(&self.perm) {
+            row[..m].copy_from_slice(&wy[p * m..p * m + m]);
+        }
+        for k in 0..N {
+            let yk = yt[k];
+            for (i, yi) in yt.iter_mut().enumerate().skip(k + 1) {
+                let c = self.l[tri(i) + k];
+                for (x, &v) in yi[..m].iter_mut().zip(&yk[..m]) {
+                    *x -= c * v;
+                }
+            }
+        }
+        for (dst, row) in wy[..N * m].chunks_exact_mut(m).zip(&yt) {
+            dst.copy_from_slice(&row[..m]);
+        }
+        // Lower triangle (packed), like `block_update`.
+        for a in 0..m {
+            for b in 0..=a {
+                let mut v = 0.0;
+                for (row, &dk) in yt.iter().zip(self.dinv) {
+                    v += row[a] * dk * row[b];
+                }
+                d[tri(a) + b] -= v;
+                if b == a {
+                    s[a] += v.abs();
+                }
+            }
+        }
+    }
+}
+
+/// `r -= Yᵀ u` for `Y` of `N × M` (row-major).
+#[inline(always)]
+fn sub_mat_t_vec<const N: usize, const M: usize>(y: &[Real], u: &[Real; N], r: &mut [Real]) {
+    let (y, r) = (&y[..N * M], &mut r[..M]);
+    let mut acc = [0.0; M];
+    for (yrow, &uk) in y.chunks_exact(M).zip(u) {
+        for (a, &v) in acc.iter_mut().zip(yrow) {
+            *a += uk * v;
+        }
+    }
+    for (ri, &a) in r.iter_mut().zip(&acc) {
+        *ri -= a;
+    }
+}
+
+/// [`sub_mat_t_vec`] for any number of columns (`r.len()`).
+fn sub_mat_t_vec_dyn<const N: usize>(y: &[Real], u: &[Real; N], r: &mut [Real]) {
+    let m = r.len();
+    let mut acc = [0.0; MAX_DIM];
+    for (yrow, &uk) in y[..N * m].chunks_exact(m).zip(u) {
+        for (a, &v) in acc.iter_mut().zip(yrow) {
+            *a += uk * v;
+        }
+    }
+    for (ri, &a) in r.iter_mut().zip(&acc) {
+        *ri -= a;
+    }
+}
+
+/// `acc += Y x` for `Y` of `N × M` (row-major).
+#[inline(always)]
+fn add_mat_vec<const N: usize, const M: usize>(y: &[Real], x: &[Real], acc: &mut [Real; N]) {
+    let (y, x) = (&y[..N * M], &x[..M]);
+    for (a, yrow) in acc.iter_mut().zip(y.chunks_exact(M)) {
+        *a += dot_n::<M>(yrow, x);
+    }
+}
+
+/// [`add_mat_vec`] for any number of columns (`x.len()`).
+fn add_mat_vec_dyn<const N: usize>(y: &[Real], x: &[Real], acc: &mut [Real; N]) {
+    let m = x.len();
+    for (a, yrow) in acc.iter_mut().zip(y[..N * m].chunks_exact(m)) {
+        *a += dot(yrow, x);
+    }
+}
+
+/// Assembles the diagonal block `d` (packed lower triangle of the symmetric part of `m`, see
+/// [`tri`]) and the scales `s` of a body. Returns whether every entry is finite.
+#[inline]
+#[allow(
+    clippy::needless_range_loop,
+    reason = "index loops with compile-time bounds, fully unrolled"
+)]
+fn assemble_body(m: &[Real; 36], d: &mut [Real], s: &mut [Real]) -> bool {
+    let (d, s) = (&mut d[..tri(6)], &mut s[..6]);
+    for i in 0..6 {
+        for j in 0..6 {
+            if j <= i {
+                d[tri(i) + j] = 0.5 * (m[i * 6 + j] + m[j * 6 + i]);
+            }
+        }
+        s[i] = d[tri(i) + i].abs();
+    }
+    // `v * 0` is `±0` for finite `v` and NaN otherwise.
+    let mut chk = [0.0; 6];
+    for row in m.chunks_exact(6) {
+        for (c, &v) in chk.iter_mut().zip(row) {
+            *c += v * 0.0;
+        }
+    }
+    chk.iter().all(|&c| c == 0.0)
+}
+
+/// Assembles the diagonal block `d` (`-diag(c)`, `N × N`, packed lower triangle) and the scales
+/// `s` of a joint. Returns whether every compliance is finite and non-negative.
+#[inline]
+#[allow(
+    clippy::needless_range_loop,
+    reason = "index loops with compile-time bounds, fully unrolled"
+)]
+fn assemble_joint<const N: usize>(c: &[Real], d: &mut [Real], s: &mut [Real]) -> bool {
+    let (c, d, s) = (&c[..N], &mut d[..tri(N)], &mut s[..N]);
+    let mut ok = true;
+    d.fill(0.0);
+    for i in 0..N {
+        d[tri(i) + i] = -c[i];
+        s[i] = c[i];
+        ok &= (0.0..=Real::MAX).contains(&c[i]);
+    }
+    ok
+}
+
+/// Writes (or adds, see [`JacTarget`]) the `M` Jacobian rows starting at `src` (stride
+/// [`JAC_ROW_STRIDE`], 6 entries each) into the block at the start of `dst`. Returns whether
+/// every value read is finite.
+#[inline]
+#[allow(
+    clippy::needless_range_loop,
+    reason = "index loops with compile-time bounds, fully unrolled"
+)]
+fn scatter_jac<const M: usize>(src: &[Real], t: JacTarget, dst: &mut [Real]) -> bool {
+    let mut rows = [[0.0; BODY_DOFS]; M];
+    let mut chk = [0.0; BODY_DOFS];
+    for (i, row) in rows.iter_mut().enumerate() {
+        row.copy_from_slice(&src[JAC_ROW_STRIDE * i..JAC_ROW_STRIDE * i + BODY_DOFS]);
+        for (c, &v) in chk.iter_mut().zip(row.iter()) {
+            *c += v * 0.0;
+        }
+    }
+    let dst = &mut dst[..BODY_DOFS * M];
+    match (t.transposed, t.add) {
+        (false, false) => {
+            for (d, row) in dst.chunks_exact_mut(BODY_DOFS).zip(&rows) {
+                d.copy_from_slice(row);
+            }
+        }
+        (false, true) => {
+            for (d, row) in dst.chunks_exact_mut(BODY_DOFS).zip(&rows) {
+                for (x, &v) in d.iter_mut().zip(row) {
+                    *x += v;
+                }
+            }
+        }
+        (true, false) => {
+            for c in 0..BODY_DOFS {
+                for i in 0..M {
+                    dst[c * M + i] = rows[i][c];
+                }
+            }
+        }
+        (true, true) => {
+            for c in 0..BODY_DOFS {
+                for i in 0..M {
+                    dst[c * M + i] += rows[i][c];
+                }
+            }
+        }
+    }
+    chk.iter().all(|&c| c == 0.0)
+}
+
+/// [`scatter_jac`] for `m` rows (any number).
+fn scatter_jac_dyn(m: usize, src: &[Real], t: JacTarget, dst: &mut [Real]) -> bool {
+    let mut chk = [0.0; BODY_DOFS];
+    let dst = &mut dst[..BODY_DOFS * m];
+    for i in 0..m {
+        let row = &src[JAC_ROW_STRIDE * i..JAC_ROW_STRIDE * i + BODY_DOFS];
+        for (c, &v) in row.iter().enumerate() {
+            chk[c] += v * 0.0;
+            let idx = if t.transposed {
+                c * m + i
+            } else {
+                i * BODY_DOFS + c
+            };
+            if t.add {
+                dst[idx] += v;
+            } else {
+                dst[idx] = v;
+            }
+        }
+    }
+    chk.iter().all(|&c| c == 0.0)
 }
 
 fn check_len(what: &'static str, expected: usize, got: usize) -> Result<(), KktError> {
@@ -915,6 +1370,7 @@ fn check_len(what: &'static str, expected: usize, got: usize) -> Result<(), KktE
 }
 
 /// The right-hand-side segment of a node.
+#[inline(always)]
 fn seg<'a>(
     loc: RhsLoc,
     len: usize,
@@ -928,10 +1384,25 @@ fn seg<'a>(
     }
 }
 
-/// Dot product of the first `N` entries (a compile-time length, so the loop is unrolled).
-#[inline]
+/// Dot product of the first `N` entries (a compile-time length, so the loop is unrolled),
+/// summed in two interleaved halves so that it vectorises.
+#[inline(always)]
 fn dot_n<const N: usize>(a: &[Real], b: &[Real]) -> Real {
-    a[..N].iter().zip(&b[..N]).map(|(x, y)| x * y).sum()
+    let (a, b) = (&a[..N], &b[..N]);
+    if N == 1 {
+        return a[0] * b[0];
+    }
+    // The first products start the two accumulators (no `0 + x`, which cannot be folded).
+    let mut acc = [a[0] * b[0], a[1] * b[1]];
+    for (x, y) in a[2..].chunks_exact(2).zip(b[2..].chunks_exact(2)) {
+        acc[0] += x[0] * y[0];
+        acc[1] += x[1] * y[1];
+    }
+    let mut s = acc[0] + acc[1];
+    if N % 2 == 1 {
+        s += a[N - 1] * b[N - 1];
+    }
+    s
 }
 
 #[inline]
@@ -939,178 +1410,363 @@ fn dot(a: &[Real], b: &[Real]) -> Real {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
-/// `dst (m×n) -= a (m×k) · bᵀ` with `b` of shape `n×k`, all row-major.
+/// Replaces the unit lower triangular `L` stored strictly below the diagonal of the packed
+/// lower `a` (see [`tri`]) by `X = L⁻¹` and `D⁺` (`dinv`) in the packed layout of [`Packed`]
+/// (same `tri(N)` entries). From `L X = I`, row by row: `X_ij = -L_ij - Σ_{j<k<i} L_ik X_kj`.
 #[inline]
-fn sub_mul_nt(dst: &mut [Real], a: &[Real], b: &[Real], k: usize) {
-    let n = b.len() / k;
-    for (drow, arow) in dst.chunks_exact_mut(n).zip(a.chunks_exact(k)) {
-        for (d, brow) in drow.iter_mut().zip(b.chunks_exact(k)) {
-            *d -= dot(arow, brow);
+#[allow(
+    clippy::needless_range_loop,
+    reason = "index loops with compile-time bounds, fully unrolled"
+)]
+fn invert_and_pack<const N: usize>(a: &mut [Real], dinv: &[Real]) {
+    let a = &mut a[..tri(N)];
+    let mut w = [[0.0; N]; N];
+    for i in 0..N {
+        for j in 0..N {
+            if j < i {
+                w[i][j] = a[tri(i) + j];
+            }
         }
+    }
+    for i in 1..N {
+        let li = w[i];
+        for j in 0..N {
+            if j < i {
+                let mut acc = -li[j];
+                for k in 0..N {
+                    if k > j && k < i {
+                        acc -= li[k] * w[k][j];
+                    }
+                }
+                w[i][j] = acc;
+            }
+        }
+    }
+    // Packed: `X_ik` at `i (i - 1) / 2 + k`, then `D⁺` (see [`Packed`]); `tri(N)` entries.
+    for i in 1..N {
+        for k in 0..N {
+            if k < i {
+                a[i * (i - 1) / 2 + k] = w[i][k];
+            }
+        }
+    }
+    let o = N * (N - 1) / 2;
+    a[o..o + N].copy_from_slice(&dinv[..N]);
+}
+
+/// The factors of one pivot block as the solve reads them: `X = L⁻¹` packed by rows (strictly
+/// lower part, `X_ik` at `i (i - 1) / 2 + k`), followed by `D⁺`, and the permutation.
+struct Packed<'a, const N: usize> {
+    x: &'a [Real],
+    dinv: &'a [Real],
+    /// `perm[i]` is the original row of position `i`.
+    perm: [usize; N],
+}
+
+impl<'a, const N: usize> Packed<'a, N> {
+    /// The factors stored at the start of `a` by [`invert_and_pack`] and of `perm`.
+    #[inline(always)]
+    fn new(a: &'a [Real], perm: &[u8]) -> Self {
+        let o = N * (N - 1) / 2;
+        let mut p = [0; N];
+        for (d, &s) in p.iter_mut().zip(perm) {
+            // Stored values are `< N`; the clamp only keeps indexing trivially in range.
+            *d = (s as usize).min(N - 1);
+        }
+        Self {
+            x: &a[..o],
+            dinv: &a[o..o + N],
+            perm: p,
+        }
+    }
+
+    /// `X Π v = L⁻¹ Π v` (`v` in original order, at least `N` long). Unrolled; the rows are
+    /// independent.
+    #[inline(always)]
+    #[allow(
+        clippy::needless_range_loop,
+        reason = "index loops with compile-time bounds, fully unrolled"
+    )]
+    fn lower_solve(&self, v: &[Real]) -> [Real; N] {
+        let vp: [Real; N] = std::array::from_fn(|i| v[self.perm[i]]);
+        let mut y = vp;
+        for i in 0..N {
+            for k in 0..N {
+                if k < i {
+                    y[i] += self.x[i * (i - 1) / 2 + k] * vp[k];
+                }
+            }
+        }
+        y
+    }
+
+    /// `out = Πᵀ Xᵀ t = Πᵀ L⁻ᵀ t` (`out` in original order, at least `N` long). Unrolled.
+    #[inline(always)]
+    #[allow(
+        clippy::needless_range_loop,
+        reason = "index loops with compile-time bounds, fully unrolled"
+    )]
+    fn upper_solve_into(&self, t: [Real; N], out: &mut [Real]) {
+        let mut x = t;
+        for k in 0..N {
+            for j in 0..N {
+                if j < k {
+                    x[j] += self.x[k * (k - 1) / 2 + j] * t[k];
+                }
+            }
+        }
+        for (&p, &xi) in self.perm.iter().zip(&x) {
+            out[p] = xi;
+        }
+    }
+
+    /// `D⁺ y` (`y` in permuted order, at least `N` long).
+    #[inline(always)]
+    fn scaled(&self, y: &[Real]) -> [Real; N] {
+        let mut out = [0.0; N];
+        for ((o, &yi), &di) in out.iter_mut().zip(y).zip(self.dinv) {
+            *o = yi * di;
+        }
+        out
     }
 }
 
-/// Row stride of the pivot scratch matrices.
-const STRIDE: usize = MAX_DIM;
+/// `n (n + 1) / 2`: the size of a packed lower triangle; its row `i` starts at `tri(i)`. The
+/// diagonal blocks are stored that way (only their lower triangle is ever used).
+#[inline(always)]
+const fn tri(n: usize) -> usize {
+    n * (n + 1) / 2
+}
 
-/// Scratch of the dense pivoted `LDLᵀ` of one pivot block (row stride [`STRIDE`]).
+/// `Some(NonFinite)` if some entry of `v` is NaN or infinite.
+#[inline(always)]
+fn not_finite<const N: usize>(v: &[Real; N]) -> Option<PivotFail> {
+    let mut bad = false;
+    for &x in v {
+        bad |= !x.is_finite();
+    }
+    bad.then_some(PivotFail::NonFinite)
+}
+
+/// State of the pivoted `LDLᵀ` of one `N × N` block, see [`PivotWork::factor`].
+struct Ldl<'a, const N: usize> {
+    /// The block, worked on in place (packed lower triangle, see [`tri`]): `L` in the eliminated
+    /// columns, the Schur complement in the others.
+    w: &'a mut [Real],
+    /// `1 / s` by position.
+    inv_s: [Real; N],
+    /// `perm[i]` is the original index of position `i`.
+    perm: [usize; N],
+    /// `1 / d` of the eliminated steps.
+    dinv: [Real; N],
+}
+
+impl<const N: usize> Ldl<'_, N> {
+    /// Step `K` (`< N`): chooses the pivot among positions `K..N` (largest `|d_i| / s_i`, first
+    /// position on ties, NaN never chosen), moves it to position `K` and eliminates it. Returns
+    /// `false` (nothing changed) when the largest scaled pivot is `<= thresh`: the remaining rows
+    /// are dropped.
+    #[inline(always)]
+    #[allow(
+        clippy::needless_range_loop,
+        reason = "index loops with compile-time bounds, fully unrolled"
+    )]
+    fn step<const K: usize>(&mut self, thresh: Real, body: bool) -> Result<bool, PivotFail> {
+        let w = &mut self.w[..tri(N)];
+        if K >= N {
+            return Ok(false);
+        }
+        // The reciprocals of the candidates, computed while the pivot is searched (the
+        // division is on the critical path otherwise).
+        let mut dg = [0.0; N];
+        for i in K..N {
+            dg[i] = w[tri(i) + i];
+        }
+        // A non-finite candidate (overflow).
+        let mut bad = false;
+        let mut recip = [0.0; N];
+        let mut ratio = [0.0; N];
+        for i in K..N {
+            // `d * 0` is `±0` for finite `d` and NaN otherwise.
+            bad |= dg[i] * 0.0 != 0.0;
+            recip[i] = 1.0 / dg[i];
+            ratio[i] = dg[i].abs() * self.inv_s[i];
+        }
+        if bad {
+            return Err(PivotFail::NonFinite);
+        }
+        let mut best = K;
+        let mut best_ratio = -1.0;
+        for i in K..N {
+            if ratio[i] > best_ratio {
+                best = i;
+                best_ratio = ratio[i];
+            }
+        }
+        if best_ratio.is_nan() || best_ratio <= thresh {
+            return Ok(false);
+        }
+        if best != K {
+            // Symmetric swap of rows/columns `K <= best` in lower-triangle storage, without
+            // branches on `best` (it is data-dependent; a no-op when `best == K`).
+            for j in 0..K {
+                let t = w[tri(K) + j];
+                w[tri(K) + j] = w[tri(best) + j];
+                w[tri(best) + j] = t;
+            }
+            for i in K + 1..N {
+                // Partner of `(i, K)`: `(best, i)` above `best`, `(i, best)` below it, itself on
+                // row `best` (whose entry `(best, K)` is swapped with the diagonal below).
+                let (r, c) = if i < best {
+                    (best, i)
+                } else if i > best {
+                    (i, best)
+                } else {
+                    (i, K)
+                };
+                let t = w[tri(i) + K];
+                w[tri(i) + K] = w[tri(r) + c];
+                w[tri(r) + c] = t;
+            }
+            let t = w[tri(K) + K];
+            w[tri(K) + K] = w[tri(best) + best];
+            w[tri(best) + best] = t;
+            self.perm.swap(K, best);
+            self.inv_s.swap(K, best);
+        }
+        let d = w[tri(K) + K];
+        if body && d <= 0.0 {
+            return Err(PivotFail::NotPositive);
+        }
+        let id = recip[best];
+        self.dinv[K] = id;
+        // Rows in increasing order: for `j < i` the column entry `(j, K)` is already `l_j`,
+        // and `A_ij - l_i d l_j = A_ij - A_iK l_j`.
+        for i in K + 1..N {
+            let aik = w[tri(i) + K];
+            let li = aik * id;
+            for j in K + 1..N {
+                if j < i {
+                    w[tri(i) + j] -= aik * w[tri(j) + K];
+                }
+            }
+            w[tri(i) + i] -= aik * li;
+            w[tri(i) + K] = li;
+        }
+        Ok(true)
+    }
+}
+
+/// Scratch of the factorisation of one pivot block.
 struct PivotWork {
-    /// Unit lower `L` (strictly below the diagonal) and `D` (diagonal), permuted order; only the
-    /// lower triangle is used.
-    w: [Real; STRIDE * STRIDE],
-    /// `L11⁻¹` of the kept part (lower triangle).
-    x: [Real; STRIDE * STRIDE],
-    /// `1 / d_i` of the kept pivots.
-    inv_d: [Real; STRIDE],
-    /// `perm[i]` is the original index of permuted row `i`.
-    perm: [usize; STRIDE],
+    /// `L` of the last rank-deficient pivot (row stride [`MAX_DIM`], permuted order).
+    l: [Real; MAX_DIM * MAX_DIM],
+    /// `perm[i]` is the original index of position `i` (kept rows first, then the dropped
+    /// ones).
+    perm: [usize; MAX_DIM],
 }
 
 impl Default for PivotWork {
     fn default() -> Self {
         Self {
-            w: [0.0; STRIDE * STRIDE],
-            x: [0.0; STRIDE * STRIDE],
-            inv_d: [0.0; STRIDE],
-            perm: [0; STRIDE],
+            l: [0.0; MAX_DIM * MAX_DIM],
+            perm: [0; MAX_DIM],
         }
     }
 }
 
 impl PivotWork {
-    /// Factors the symmetric `n×n` block `a` (its lower triangle is read) by `LDLᵀ` with
-    /// symmetric diagonal pivoting (largest `|d_i| / s_i` first, first index on ties) and
-    /// overwrites it with the pseudo-inverse that drops the rows whose scaled pivot is
-    /// `<= thresh`. Returns the rank.
-    fn factor(
+    /// `LDLᵀ` factorisation of the symmetric `N×N` block `a` (its lower triangle is read) with
+    /// symmetric diagonal pivoting (largest `|d_i| / s_i` first, `s` read from `sd`, first index
+    /// on ties); stops at the first pivot whose scaled value is `<= thresh`, the remaining rows
+    /// are dropped. Returns the rank.
+    ///
+    /// Outputs (permuted order): `a` receives `L` strictly below its diagonal (zero in the
+    /// columns of the dropped rows; the rest of `a` is left unspecified), `sd` receives `D⁺`
+    /// (`1 / d` for the kept pivots, `0` for the dropped ones) and `perm_out` the permutation.
+    #[allow(
+        clippy::needless_range_loop,
+        reason = "index loops with compile-time bounds, fully unrolled"
+    )]
+    fn factor<const N: usize>(
         &mut self,
         a: &mut [Real],
-        scale: &[Real],
-        n: usize,
+        sd: &mut [Real],
+        perm_out: &mut [u8],
         thresh: Real,
         body: bool,
     ) -> Result<usize, PivotFail> {
-        // Dispatch on the size so that every loop has a compile-time bound.
-        by_dim!(n, N => self.factor_n::<N>(a, scale, thresh, body))
-    }
-
-    /// [`Self::factor`] for `n = N`.
-    fn factor_n<const N: usize>(
-        &mut self,
-        a: &mut [Real],
-        scale: &[Real],
-        thresh: Real,
-        body: bool,
-    ) -> Result<usize, PivotFail> {
-        let n = N;
-        let a = &mut a[..n * n];
-        let w = &mut self.w;
-        let mut inv_s = [0.0; STRIDE];
-        for i in 0..n {
-            self.perm[i] = i;
-            inv_s[i] = if scale[i] > 0.0 { 1.0 / scale[i] } else { 0.0 };
-            w[i * STRIDE..i * STRIDE + i + 1].copy_from_slice(&a[i * n..i * n + i + 1]);
+        // Worked on in place.
+        let w = &mut a[..tri(N)];
+        let mut inv_s = [0.0; N];
+        for (is, &sc) in inv_s.iter_mut().zip(&*sd) {
+            *is = if sc > 0.0 { 1.0 / sc } else { 0.0 };
         }
-        let mut rank = n;
-        for k in 0..n {
-            let mut best = k;
-            let mut best_ratio = -1.0;
-            for i in k..n {
-                let d = w[i * STRIDE + i];
-                if !d.is_finite() {
-                    return Err(PivotFail::NonFinite);
-                }
-                let r = d.abs() * inv_s[i];
-                if r > best_ratio {
-                    best = i;
-                    best_ratio = r;
-                }
-            }
-            if best_ratio.is_nan() || best_ratio <= thresh {
-                rank = k;
-                break;
-            }
-            if best != k {
-                // Symmetric swap of rows/columns `k < best` in lower-triangle storage.
-                for j in 0..k {
-                    w.swap(k * STRIDE + j, best * STRIDE + j);
-                }
-                for i in k + 1..best {
-                    w.swap(i * STRIDE + k, best * STRIDE + i);
-                }
-                for i in best + 1..n {
-                    w.swap(i * STRIDE + k, i * STRIDE + best);
-                }
-                w.swap(k * STRIDE + k, best * STRIDE + best);
-                self.perm.swap(k, best);
-                inv_s.swap(k, best);
-            }
-            let d = w[k * STRIDE + k];
-            if body && d <= 0.0 {
-                return Err(PivotFail::NotPositive);
-            }
-            let id = 1.0 / d;
-            self.inv_d[k] = id;
-            // Rows in increasing order: for `j < i` the column entry `w[j][k]` is already `l_j`,
-            // and `A_ij - l_i d l_j = A_ij - A_ik l_j`.
-            for i in k + 1..n {
-                let aik = w[i * STRIDE + k];
-                let li = aik * id;
-                for j in k + 1..i {
-                    w[i * STRIDE + j] -= aik * w[j * STRIDE + k];
-                }
-                w[i * STRIDE + i] -= aik * li;
-                w[i * STRIDE + k] = li;
-            }
+        let mut st = Ldl {
+            w,
+            inv_s,
+            perm: std::array::from_fn(|i| i),
+            dinv: [0.0; N],
+        };
+        let mut rank = N;
+        // The steps, unrolled (each one has compile-time loop bounds).
+        macro_rules! steps {
+            ($($k:literal)*) => {
+                $(
+                    if $k < N && rank == N && !st.step::<$k>(thresh, body)? {
+                        rank = $k;
+                    }
+                )*
+            };
         }
-        if body && rank < n {
+        steps!(0 1 2 3 4 5 6 7 8 9 10 11);
+        let Ldl { w, perm, dinv, .. } = st;
+        if body && rank < N {
             return Err(PivotFail::NotPositive);
         }
-        // X = L11⁻¹ (unit lower), then P⁺ = Πᵀ (Xᵀ D⁻¹ X ⊕ 0) Π.
-        let x = &mut self.x;
-        for i in 0..rank {
-            x[i * STRIDE + i] = 1.0;
-            for j in 0..i {
-                let mut acc = -w[i * STRIDE + j];
-                for k in j + 1..i {
-                    acc -= w[i * STRIDE + k] * x[k * STRIDE + j];
+        // Overflow in `1 / d` (a non-finite multiplier would have made a later diagonal entry
+        // non-finite).
+        if let Some(e) = not_finite(&dinv) {
+            return Err(e);
+        }
+        if rank < N {
+            for i in rank..N {
+                for j in rank..i {
+                    w[tri(i) + j] = 0.0;
                 }
-                x[i * STRIDE + j] = acc;
+            }
+            // `L` for the null vectors.
+            for i in 0..N {
+                for j in 0..i {
+                    self.l[i * MAX_DIM + j] = w[tri(i) + j];
+                }
             }
         }
-        a.fill(0.0);
-        for p in 0..rank {
-            for q in 0..=p {
-                let mut v = 0.0;
-                for i in p..rank {
-                    v += x[i * STRIDE + p] * x[i * STRIDE + q] * self.inv_d[i];
-                }
-                let (pp, pq) = (self.perm[p], self.perm[q]);
-                a[pp * n + pq] = v;
-                a[pq * n + pp] = v;
-            }
+        sd[..N].copy_from_slice(&dinv);
+        for (o, &p) in perm_out.iter_mut().zip(&perm) {
+            // `p < N <= MAX_DIM`, which fits a byte.
+            *o = p as u8;
         }
-        if a.iter().any(|v| !v.is_finite()) {
-            return Err(PivotFail::NonFinite);
-        }
+        self.perm[..N].copy_from_slice(&perm);
         Ok(rank)
     }
 
-    /// Null vector (original row order) of the factored block for the dropped permuted row `q`:
-    /// `y = [-L11⁻ᵀ l; e_q]` with `l` the kept part of row `q` of `L`.
+    /// Null vector (original row order) of the last factored block for the dropped position
+    /// `q`: `y = [-L11⁻ᵀ l; e_q]` with `l` the kept part of row `q` of `L`.
     fn null_vector(&self, n: usize, rank: usize, q: usize) -> [Real; MAX_DIM] {
+        let l = |i: usize, j: usize| self.l[i * MAX_DIM + j];
         let mut y = [0.0; MAX_DIM];
         y[q] = 1.0;
-        for (a, ya) in y[..rank].iter_mut().enumerate() {
-            let mut acc = 0.0;
-            for i in a..rank {
-                acc += self.x[i * STRIDE + a] * self.w[q * STRIDE + i];
+        for a in (0..rank).rev() {
+            let mut acc = -l(q, a);
+            for (i, &yi) in y.iter().enumerate().take(rank).skip(a + 1) {
+                acc -= l(i, a) * yi;
             }
-            *ya = -acc;
+            y[a] = acc;
         }
         let mut v = [0.0; MAX_DIM];
-        for (i, &yi) in y[..n].iter().enumerate() {
-            v[self.perm[i]] = yi;
+        for (&p, &yi) in self.perm.iter().zip(&y).take(n) {
+            v[p] = yi;
         }
         v
     }
