@@ -28,6 +28,7 @@ fn main() {
     }
     let quick = args.iter().any(|a| a == "--quick");
     pendulum();
+    penalty();
     chains(quick);
     let settings = |backend| WorldSettings {
         dt: 1.0 / 100.0,
@@ -80,6 +81,80 @@ fn pendulum() {
             ),
             Err(e) => println!("{:<18} {e}", backend.name()),
         }
+    }
+}
+
+/// The penalty method on the 90 deg pendulum (1 kg, 1 m, 5 s, dt 1/60, 4 substeps): the pivot
+/// gap is the elastic deflection under the joint force, so gap * k must stay constant as k grows,
+/// and no k may be unstable (the compliance is implicit).
+fn penalty() {
+    use rapier3d_mpc184::math::rapier::prelude::{MassProperties, RigidBodyBuilder};
+    println!("\n## penalty (KEYOPT(2)=1) pendulum 1 m, 90 deg, 5 s, dt 1/60, 4 substeps");
+    println!(
+        "{:<18} {:>10} {:>11} {:>12} {:>11} {:>9}",
+        "method", "k", "gap m", "gap*k", "E err", "us/step"
+    );
+    let ks: [Option<Real>; 8] = [
+        Some(1e4),
+        Some(1e5),
+        Some(1e6),
+        Some(1e7),
+        Some(1e8),
+        Some(1e9),
+        Some(1e10),
+        None,
+    ];
+    for k in ks {
+        let method = match k {
+            Some(k) => ConstraintMethod::Penalty { disp: -k, rot: -k },
+            None => ConstraintMethod::Lagrange,
+        };
+        let mut world = Mpc184World::new(WorldSettings::default());
+        let bob = world.physics.bodies.insert(
+            RigidBodyBuilder::dynamic()
+                .translation(Vector::new(1.0, 0.0, 0.0))
+                .additional_mass_properties(MassProperties::new(
+                    Vector::ZERO,
+                    1.0,
+                    Vector::splat(1e-4),
+                ))
+                .can_sleep(false),
+        );
+        let hinge = Mpc184Joint::revolute(Axis::Z, Vector::ZERO).with_method(method);
+        let id = match world.insert_joint(None, Some(bob), hinge) {
+            Ok(id) => id,
+            Err(e) => {
+                println!("{:<18} {e}", "penalty");
+                continue;
+            }
+        };
+        let e0 = world.kinetic_energy() + world.potential_energy();
+        let (mut gap, mut e_err): (Real, Real) = (0.0, 0.0);
+        let t0 = Instant::now();
+        let mut status = String::new();
+        for _ in 0..300 {
+            if let Err(e) = world.step() {
+                status = format!(" failed: {e}");
+                break;
+            }
+            gap = gap.max(world.output(id).map_or(Real::NAN, |o| o.gap));
+            let e = world.kinetic_energy() + world.potential_energy();
+            e_err = e_err.max((e - e0).abs() / 9.81);
+        }
+        let us = t0.elapsed().as_secs_f64() * 1e6 / 300.0;
+        let (name, kk) = match k {
+            Some(k) => ("penalty", format!("{k:.0e}")),
+            None => ("lagrange", "-".to_string()),
+        };
+        println!(
+            "{:<18} {:>10} {:>11.3e} {:>12} {:>11.2e} {:>9.2}{status}",
+            name,
+            kk,
+            gap,
+            k.map_or("-".to_string(), |k| format!("{:.4e}", gap * k)),
+            e_err,
+            us
+        );
     }
 }
 

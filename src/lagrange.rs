@@ -705,6 +705,36 @@ impl Mpc184World {
             let Some(kkt) = ls.kkt.as_ref() else {
                 return Ok(());
             };
+            // A penalty row is a spring, not a velocity constraint: the implicit velocity solve
+            // above already gave it the force k times its end-of-substep deflection. Here it
+            // keeps its current rate (target = its own J v, so with compliance 1 / (k h^2) it
+            // takes almost no impulse), otherwise the projection would add a stiffening impulse
+            // that the deflection does not show (measured: gap * k was 0.67 of the reported
+            // force on the 90 deg pendulum).
+            for k in 0..kkt.num_joints() {
+                let spec = kkt.joint_specs()[k];
+                let r0 = kkt.row_offset(k);
+                for r in r0..r0 + spec.rows {
+                    if !ls.penalty[r] {
+                        continue;
+                    }
+                    let jr = &ls.jac[JAC_ROW_STRIDE * r..JAC_ROW_STRIDE * (r + 1)];
+                    let mut jv = 0.0;
+                    for (slot, body) in spec.bodies.iter().enumerate() {
+                        if let Some(i) = body {
+                            let s = &ls.st[*i];
+                            let v = [
+                                s.linvel.x, s.linvel.y, s.linvel.z, s.angvel.x, s.angvel.y,
+                                s.angvel.z,
+                            ];
+                            for a in 0..6 {
+                                jv += jr[6 * slot + a] * v[a];
+                            }
+                        }
+                    }
+                    ls.rhs_j[r] = jv;
+                }
+            }
             kkt.solve(&mut ls.rhs_b, &mut ls.rhs_j)
                 .map_err(|e| kkt_err(e, time))?;
             for r in 0..ls.rhs_j.len() {

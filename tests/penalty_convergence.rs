@@ -3,11 +3,12 @@
 //! constraint error is the elastic deflection under the joint force: it must fall as 1/k.
 //!
 //! A 1 kg bob on a 1 m revolute pendulum released at 90 deg, 5 s at dt = 1/60 s with 4 substeps,
-//! for k = 1e4 .. 1e10 N/m (and N m/rad). Checked: every run finishes; the largest pivot gap times
-//! k lies within 20 % of the same product at k = 1e10 for every k >= 1e5 (slope -1 on a log-log
-//! chart; at 1e4 the deflection, 3 mm, starts to change the motion itself) and the gap at 1e10
-//! is below 1e-8 m; the swing agrees with the Lagrange result (angle after 5 s within 1e-3 rad
-//! at k = 1e10).
+//! for k = 1e4 .. 1e10 N/m (and N m/rad). The largest pivot gap is the spring's deflection at the
+//! bottom of the swing, where the rod force is m g (3 - 2 cos 90 deg) = 3 m g, so gap * k must be
+//! 3 m g = 29.43 N for every k (the 1/k law with its constant): checked within 1 %, which covers
+//! the first-order scheme's tension error (3e-4 at this step) and the change of the swing radius
+//! by the deflection itself (3 mm at k = 1e4, 3e-3 relative). Also: every run finishes, and the
+//! swing agrees with the Lagrange result (angle after 5 s within 1e-3 rad at k = 1e10).
 #![cfg(feature = "f64")]
 
 use rapier3d_mpc184::math::rapier::prelude::{MassProperties, RigidBodyBuilder};
@@ -39,25 +40,19 @@ fn penalty_error_falls_as_one_over_k() {
         .iter()
         .map(|&k| swing(ConstraintMethod::Penalty { disp: -k, rot: -k }))
         .collect();
-    let reference = runs[ks.len() - 1].0 * ks[ks.len() - 1];
+    let reference = 3.0 * 9.81;
     for (k, (gap, angle)) in ks.iter().zip(&runs) {
         println!(
             "k {k:.0e}: gap {gap:.3e} m, gap*k {:.4e}, angle {angle:.6} (lagrange {lagrange_angle:.6})",
             gap * k
         );
-        if *k >= 1e5 {
-            let ratio = gap * k / reference;
-            assert!(
-                (0.8..=1.2).contains(&ratio),
-                "k {k:.0e}: gap*k off the 1/k line by {ratio:.3}"
-            );
-        }
+        let ratio = gap * k / reference;
+        assert!(
+            (0.99..=1.01).contains(&ratio),
+            "k {k:.0e}: gap*k = {:.4} N, not 3 m g (ratio {ratio:.4})",
+            gap * k
+        );
     }
-    assert!(
-        runs[ks.len() - 1].0 <= 1e-8,
-        "gap at k = 1e10: {:.3e}",
-        runs[ks.len() - 1].0
-    );
     let d = (runs[ks.len() - 1].1 - lagrange_angle).abs();
     assert!(
         d <= 1e-3,
