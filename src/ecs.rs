@@ -120,7 +120,7 @@ pub struct BodyState {
 
 /// An MPC184 joint between body entities (node I on `body1`, node J on `body2`; `None` is the
 /// ground). Changing it re-creates the joint; removing or despawning it removes the joint.
-#[derive(Component, Clone, Copy, Debug, PartialEq)]
+#[derive(Component, Clone, Debug, PartialEq)]
 pub struct Mpc184JointSpec {
     /// The joint.
     pub joint: Mpc184Joint,
@@ -262,7 +262,7 @@ pub fn sync_joints(
             });
             continue;
         };
-        match sim.world.insert_joint(b1, b2, spec.joint) {
+        match sim.world.insert_joint(b1, b2, spec.joint.clone()) {
             Ok(id) => {
                 sim.joints.insert(e, id);
                 commands

@@ -80,6 +80,16 @@ pub enum Error {
         /// What is wrong.
         reason: String,
     },
+    /// A joint's behaviour data (SECSTOP, SECLOCK, TB,JOIN, SECDATA) is inconsistent.
+    #[error("joint {joint}: {field}: {reason}")]
+    InvalidBehaviour {
+        /// The joint.
+        joint: JointId,
+        /// The ANSYS name of the offending data (`SECSTOP`, `STIF`, `JNS`, ...).
+        field: &'static str,
+        /// What is wrong.
+        reason: String,
+    },
     /// The simulation produced non-finite or exploding values; the world keeps its last good state.
     #[error("simulation diverged at t = {time} s: {reason}")]
     Diverged {

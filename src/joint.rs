@@ -2,7 +2,9 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::behaviour::{Behaviour, Limit, Sym6, Table};
 use crate::catalogue::{Axis, JointKind};
+use crate::dof::Dof;
 use crate::math::{Real, Rotation, Vector};
 
 /// How the constraint equations are imposed (KEYOPT(2)).
@@ -34,7 +36,7 @@ pub enum ConstraintMethod {
 /// let hinge = Mpc184Joint::new(JointKind::Revolute { axis: Axis::Z }, Vector::ZERO);
 /// assert_eq!(hinge.kind.constraint_count(), 5);
 /// ```
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Mpc184Joint {
     /// The joint type (KEYOPT(1), KEYOPT(4)).
     pub kind: JointKind,
@@ -51,6 +53,10 @@ pub struct Mpc184Joint {
     /// Orientation of the local system at J at time 0 (`SECJOINT,LSYS` second value; default:
     /// the same as `axes1`).
     pub axes2: Option<Rotation>,
+    /// Stops, locks, springs and dampers on the free DOFs (`SECSTOP`, `SECLOCK`, `TB,JOIN`,
+    /// `SECDATA`; default: none).
+    #[serde(default)]
+    pub behaviour: Behaviour,
 }
 
 impl Mpc184Joint {
@@ -63,6 +69,7 @@ impl Mpc184Joint {
             node2: at,
             axes1: Rotation::IDENTITY,
             axes2: None,
+            behaviour: Behaviour::default(),
         }
     }
 
@@ -96,6 +103,58 @@ impl Mpc184Joint {
     #[must_use]
     pub fn with_method(mut self, method: ConstraintMethod) -> Self {
         self.method = method;
+        self
+    }
+
+    /// Adds a stop on a free DOF (`SECSTOP,dof,min,max`; absolute measure, m or rad).
+    #[doc(alias = "SECSTOP")]
+    #[must_use]
+    pub fn with_stop(mut self, dof: Dof, min: Real, max: Real) -> Self {
+        self.behaviour.stops.push(Limit { dof, min, max });
+        self
+    }
+
+    /// Adds a lock on a free DOF (`SECLOCK,dof,min,max`).
+    #[doc(alias = "SECLOCK")]
+    #[must_use]
+    pub fn with_lock(mut self, dof: Dof, min: Real, max: Real) -> Self {
+        self.behaviour.locks.push(Limit { dof, min, max });
+        self
+    }
+
+    /// Sets the linear stiffness matrix (`TB,JOIN,,,,STIF`).
+    #[must_use]
+    pub fn with_stiffness(mut self, k: Sym6) -> Self {
+        self.behaviour.stiffness = Some(k);
+        self
+    }
+
+    /// Sets the linear damping matrix (`TB,JOIN,,,,DAMP`).
+    #[must_use]
+    pub fn with_damping(mut self, c: Sym6) -> Self {
+        self.behaviour.damping = Some(c);
+        self
+    }
+
+    /// Sets a nonlinear stiffness table on one DOF (`TB,JOIN,,,,JNSn` with `TBPT` pairs).
+    #[must_use]
+    pub fn with_stiffness_table(mut self, dof: Dof, table: Table) -> Self {
+        self.behaviour.stiffness_tables[dof.index()] = Some(table);
+        self
+    }
+
+    /// Sets a nonlinear damping table on one DOF (`TB,JOIN,,,,JNDn`).
+    #[must_use]
+    pub fn with_damping_table(mut self, dof: Dof, table: Table) -> Self {
+        self.behaviour.damping_tables[dof.index()] = Some(table);
+        self
+    }
+
+    /// Sets the springs' zero of one DOF (`SECDATA`; absolute measure, m or rad).
+    #[doc(alias = "SECDATA")]
+    #[must_use]
+    pub fn with_reference(mut self, dof: Dof, value: Real) -> Self {
+        self.behaviour.reference[dof.index()] = Some(value);
         self
     }
 

@@ -60,21 +60,21 @@ const WARM_START_LIMIT: Real = 1e-3;
 const MAX_PROJECTION_ITERATIONS: usize = 40;
 
 #[derive(Clone, Copy, Debug, Default)]
-struct BodyState {
-    pose: Pose,
-    com: Vector,
-    mass: Real,
-    inertia: Matrix,
-    inertia_inv: Matrix,
-    min_inertia: Real,
-    linvel: Vector,
-    angvel: Vector,
-    force: Vector,
-    torque: Vector,
-    added: Real,
-    principal: Vector,
-    principal_inv: Vector,
-    principal_frame: Rotation,
+pub(crate) struct BodyState {
+    pub(crate) pose: Pose,
+    pub(crate) com: Vector,
+    pub(crate) mass: Real,
+    pub(crate) inertia: Matrix,
+    pub(crate) inertia_inv: Matrix,
+    pub(crate) min_inertia: Real,
+    pub(crate) linvel: Vector,
+    pub(crate) angvel: Vector,
+    pub(crate) force: Vector,
+    pub(crate) torque: Vector,
+    pub(crate) added: Real,
+    pub(crate) principal: Vector,
+    pub(crate) principal_inv: Vector,
+    pub(crate) principal_frame: Rotation,
 }
 
 impl BodyState {
@@ -107,13 +107,13 @@ pub(crate) struct LagrangeState {
     pub(crate) dirty: bool,
     /// Number of colliders when the topology was built (a change rebuilds it).
     colliders: usize,
-    bodies: Vec<RigidBodyHandle>,
-    index: HashMap<RigidBodyHandle, usize>,
+    pub(crate) bodies: Vec<RigidBodyHandle>,
+    pub(crate) index: HashMap<RigidBodyHandle, usize>,
     /// KKT block k -> world joint index, and back.
     blocks: Vec<usize>,
     block_of: Vec<Option<usize>>,
-    kkt: Option<KktSolver>,
-    st: Vec<BodyState>,
+    pub(crate) kkt: Option<KktSolver>,
+    pub(crate) st: Vec<BodyState>,
     mass: Vec<[Real; 36]>,
     jac: Vec<Real>,
     compliance: Vec<Real>,
@@ -124,7 +124,7 @@ pub(crate) struct LagrangeState {
     /// Penalty stiffness per row (0 on Lagrange rows).
     kpen: Vec<Real>,
     /// Prescribed rate of each row over the current substep (drives; 0 elsewhere).
-    rate: Vec<Real>,
+    pub(crate) rate: Vec<Real>,
     /// Scale of the hard rows' regularisation (raised by a failing projection).
     reg_scale: Real,
     /// The last projection step, to undo it: body states before it, its displacement and
@@ -144,7 +144,7 @@ pub(crate) struct LagrangeState {
     /// Position multipliers of this substep's projection (the displacement is `M~^-1 J^T mu`),
     /// the warm start of the next one.
     mu: Vec<Real>,
-    rhs_b: Vec<[Real; 6]>,
+    pub(crate) rhs_b: Vec<[Real; 6]>,
     rhs_j: Vec<Real>,
     /// Applied impulse per row accumulated over the current substep (N s).
     pub(crate) impulse: Vec<Real>,
@@ -532,7 +532,7 @@ impl Mpc184World {
     }
 
     /// One substep of the Lagrange backend. Requires the factorisation at the current state.
-    pub(crate) fn lagrange_substep(&mut self, h: Real) -> Result<(), Error> {
+    pub(crate) fn lagrange_substep(&mut self, h: Real, t1: Real) -> Result<(), Error> {
         let time = self.time;
         let nb = self.lagrange.bodies.len();
         // 1-2. Velocity solve.
@@ -550,6 +550,14 @@ impl Mpc184World {
                 let pen = if ls.penalty[r] { ls.value[r] / h } else { 0.0 };
                 ls.rhs_j[r] = ls.rate[r] - ls.kin[r] - pen;
             }
+        }
+        let effects = self.effects_any();
+        if effects {
+            self.effects_begin_substep();
+            self.effects_kick(0.5 * h, t1 - h);
+        }
+        {
+            let ls = &mut self.lagrange;
             let Some(kkt) = ls.kkt.as_ref() else {
                 return Ok(());
             };
@@ -558,6 +566,9 @@ impl Mpc184World {
             for r in 0..ls.rhs_j.len() {
                 ls.impulse[r] = -ls.rhs_j[r];
             }
+        }
+        if effects {
+            self.effects_limits_velocity(h)?;
         }
         // Hand v' to Rapier: gravity and user forces held back for this substep.
         for i in 0..nb {
@@ -688,6 +699,9 @@ impl Mpc184World {
                 s.refresh_inertia();
             }
         }
+        if effects {
+            self.effects_limits_position(h, tol)?;
+        }
         // 4. Rows and factorisation at q_(n+1), velocity projection.
         self.lagrange_rows(h, true);
         self.lagrange_factor(h)?;
@@ -699,6 +713,12 @@ impl Mpc184World {
                 let mw = s.inertia * s.angvel + s.angvel * s.added;
                 ls.rhs_b[i] = [mv.x, mv.y, mv.z, mw.x, mw.y, mw.z];
             }
+        }
+        if effects {
+            self.effects_kick(0.5 * h, t1);
+        }
+        {
+            let ls = &mut self.lagrange;
             for r in 0..ls.rhs_j.len() {
                 ls.rhs_j[r] = ls.rate[r] - ls.kin[r];
             }
@@ -841,6 +861,8 @@ impl Mpc184World {
 
     /// Runs the Lagrange backend over one step of `n` substeps.
     pub(crate) fn lagrange_step(&mut self, h: Real, n: usize) -> Result<(), Error> {
+        self.effects_apply_pending_locks();
+        self.effects_begin_step();
         let rebuilt = self.lagrange.dirty
             || self.lagrange.kkt.is_none()
             || self.lagrange.colliders != self.physics.colliders.len();
@@ -871,7 +893,7 @@ impl Mpc184World {
         for k in 0..n {
             let t1 = self.time + (k + 1) as Real * h;
             self.update_drives(t1, h);
-            self.lagrange_substep(h)?;
+            self.lagrange_substep(h, t1)?;
         }
         Ok(())
     }
@@ -889,6 +911,12 @@ pub fn penalty_stiffness(val: Real, default: Real) -> Real {
 }
 
 /// Moves a body's centre of mass by `dx` and turns it by the rotation vector `dth` about it.
+/// [`displace`] by a 6-vector `[dx; dth]`, refreshing the world inertia.
+pub(crate) fn displace_state(s: &mut BodyState, d: [Real; 6]) {
+    displace(s, Vector::new(d[0], d[1], d[2]), Vector::new(d[3], d[4], d[5]));
+    s.refresh_inertia();
+}
+
 fn displace(s: &mut BodyState, dx: Vector, dth: Vector) {
     let local_com = s.pose.inverse_transform_point(s.com);
     s.com += dx;

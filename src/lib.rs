@@ -1,6 +1,8 @@
 #![doc = include_str!("../README.md")]
+pub mod behaviour;
 pub mod benchmarks;
 pub mod catalogue;
+pub mod effects;
 pub mod dof;
 #[cfg(feature = "ecs")]
 pub mod ecs;
@@ -22,7 +24,9 @@ pub use world::Mpc184World;
 
 /// The entry types.
 pub mod prelude {
+    pub use crate::behaviour::{Behaviour, Limit, Sym6, Table};
     pub use crate::catalogue::{Axis, JointKind};
+    pub use crate::effects::EnergyReport;
     pub use crate::dof::{Dof, DofMask};
     pub use crate::error::{Error, JointId};
     pub use crate::joint::{ConstraintMethod, Mpc184Joint};

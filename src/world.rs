@@ -134,6 +134,15 @@ pub struct JointOutput {
     pub gap: Real,
     /// Constraint error of the rotational rows: largest |C| (dimensionless, ~rad).
     pub angular_gap: Real,
+    /// Number of DOFs at a stop in the last step (`SECSTOP`).
+    pub stops: u8,
+    /// Number of DOFs locked (`SECLOCK`; stays for the rest of the run).
+    pub locks: u8,
+    /// Elastic energy of the joint's springs (J).
+    pub spring_energy: Real,
+    /// Generalised force of the springs, dampers and applied loads on each DOF in the last
+    /// substep (N or N m, on node J along the DOF; UX..ROTZ).
+    pub element_force: [Real; 6],
 }
 
 impl JointOutput {
@@ -170,6 +179,7 @@ pub(crate) struct JointEntry {
     pub(crate) initial: [Real; 6],
     pub(crate) output: JointOutput,
     pub(crate) drives: Vec<Drive>,
+    pub(crate) effects: crate::effects::EffectState,
 }
 
 #[derive(Clone, Copy, Debug, Default)]
@@ -217,6 +227,7 @@ pub struct Mpc184World {
     gyro_added: Vec<(RigidBodyHandle, Vector)>,
     started: bool,
     recovery: Option<KktSolver>,
+    pub(crate) ledger: crate::effects::EnergyLedger,
 }
 
 impl Mpc184World {
@@ -237,6 +248,7 @@ impl Mpc184World {
             gyro_added: Vec::new(),
             started: false,
             recovery: None,
+            ledger: crate::effects::EnergyLedger::default(),
             lagrange: LagrangeState::default(),
         }
     }
@@ -270,6 +282,27 @@ impl Mpc184World {
     ) -> Result<JointId, Error> {
         let id = JointId(self.joints.len() as u32);
         validate_frames(id, &joint)?;
+        joint
+            .behaviour
+            .validate(&joint.kind)
+            .map_err(|(field, reason)| Error::InvalidBehaviour {
+                joint: id,
+                field,
+                reason,
+            })?;
+        if !joint.behaviour.is_empty() && self.settings.backend != Backend::Lagrange {
+            return Err(Error::Unsupported {
+                what: format!(
+                    "stops, locks, springs and dampers (SECSTOP, SECLOCK, TB,JOIN) on the {} \
+                     backend",
+                    self.settings.backend.name()
+                ),
+                hint: "they run on the Lagrange backend (Backend::Lagrange, the default), with \
+                       either constraint method; Rapier's own limits are perfectly plastic and \
+                       its motors see only the body's own inertia"
+                    .into(),
+            });
+        }
         for (which, b) in [(1u8, body1), (2, body2)] {
             if let Some(h) = b
                 && self.physics.bodies.get(h).is_none()
@@ -409,6 +442,7 @@ impl Mpc184World {
             initial: [0.0; 6],
             output: JointOutput::default(),
             drives: Vec::new(),
+            effects: crate::effects::EffectState::default(),
         };
         let (m, wrapped) = self.measures(&entry);
         entry.unwrap = wrapped.map(AngleUnwrap::new);
@@ -873,6 +907,12 @@ impl Mpc184World {
                     tau += ev.j2[1] * m;
                 }
             }
+            // Springs, dampers, loads and limit impulses of the last substep.
+            f += e.effects.on_body2.0;
+            tau += e.effects.on_body2.1;
+            // Springs, dampers, loads and limit impulses of the last substep.
+            f += e.effects.on_body2.0;
+            tau += e.effects.on_body2.1;
             let rb2 = &self.physics.bodies[e.body2];
             let pose1 = self.physics.bodies[e.body1].position();
             let node_j = *rb2.position() * e.ansys[1].translation;
@@ -941,6 +981,17 @@ impl Mpc184World {
         e.output.rotation = Vector::new(d[3], d[4], d[5]);
         e.output.velocity = vel;
         e.output.angular_velocity = omg;
+        let b = &e.joint.behaviour;
+        e.output.stops = e.effects.at_stop.iter().filter(|x| **x).count() as u8;
+        e.output.locks = e.effects.locked.iter().filter(|x| x.is_some()).count() as u8;
+        e.output.element_force = e.effects.force;
+        e.output.spring_energy = if b.has_forces() {
+            let x: [Real; 6] =
+                core::array::from_fn(|k| m[k] - b.reference[k].unwrap_or(e.initial[k]));
+            b.spring_energy(&x, e.joint.kind.free())
+        } else {
+            0.0
+        };
     }
 
     /// Velocity of the material point at `x` of a body, and the body's angular velocity.

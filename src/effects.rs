@@ -1,0 +1,622 @@
+//! The solver side of joint behaviour on the Lagrange backend (the physics and the data are in
+//! [`crate::behaviour`]).
+//!
+//! - Springs, dampers and applied loads (`FJ`) act as generalised forces on the free DOFs,
+//!   half an impulse at the start of each substep (from the state there) and half at its end
+//!   (from the new state) — kick-drift-kick, second order for the force element.
+//! - Stops and locks cost nothing while inactive: each substep reads the limited DOFs' measures
+//!   and predicted rates, and only a DOF predicted to pass a limit gets a row. That row does
+//!   not enter the KKT structure: its response through the constrained system is one more
+//!   solve with the substep's existing factorisation (a Schur complement over the active
+//!   limits, solved with non-negative impulses), so the joints' own rows keep their rates.
+//!   - Lagrange method, transient: energy-momentum consistent elastic impact: the approach rate
+//!     `g-` becomes `-g-` (the impulse `p` changes the kinetic energy by `p (g- + g+) / 2 = 0`).
+//!   - Penalty method or a screw joint: plain inequality: the DOF lands on the limit
+//!     (`g+ = -gap / h`) and stays while pushed; the kinetic energy lost is dissipated.
+//!   - Locks land the same way and are then held by a permanent row from the next step on.
+//!   After the position projection a limit still violated by more than the projection
+//!   tolerance is projected back the same way (position level, start-of-substep directions).
+
+use serde::{Deserialize, Serialize};
+
+use crate::behaviour::dof_rows;
+use crate::dof::Dof;
+use crate::error::Error;
+use crate::joint::ConstraintMethod;
+use crate::math::{Real, Vector};
+use crate::rows::{FramePair, RowEval, RowKind};
+use crate::world::{Drive, Mpc184World, frame_pair};
+
+/// Per-joint solver state of the behaviour (not model data).
+#[derive(Clone, Debug, Default)]
+pub(crate) struct EffectState {
+    /// Locked DOFs and the value they are held at (absolute measure).
+    pub(crate) locked: [Option<Real>; 6],
+    /// Locks engaged during the current step whose hold rows are added at the next step.
+    pending: Vec<(Dof, Real)>,
+    /// DOFs at a stop during the last step.
+    pub(crate) at_stop: [bool; 6],
+    /// Applied loads (FJ) per DOF.
+    pub(crate) loads: Vec<Drive>,
+    /// Generalised spring + damper + load force of the last evaluation (per DOF).
+    pub(crate) force: [Real; 6],
+    /// World force and torque on body 2 (about its centre of mass) from the elements and the
+    /// limit impulses of the last substep (N, N m).
+    pub(crate) on_body2: (Vector, Vector),
+    /// Spring energy at the last evaluation (J).
+    pub(crate) spring_energy: Real,
+}
+
+/// Energy that left or entered the system other than through kinetic, gravitational and spring
+/// energy.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct EnergyLedger {
+    /// Dissipated by dampers, locks and plastic stops (J, >= 0).
+    pub dissipated: Real,
+    /// Work of applied joint loads (FJ) and prescribed motions (DJ) on the system (J).
+    pub work: Real,
+}
+
+/// The energy balance of a world.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct EnergyReport {
+    /// Kinetic energy of the dynamic bodies (J).
+    pub kinetic: Real,
+    /// Gravitational potential energy (J, zero at the origin).
+    pub potential: Real,
+    /// Elastic energy of the joint springs (J).
+    pub spring: Real,
+    /// Dissipated so far (J).
+    pub dissipated: Real,
+    /// Work of applied loads and drives so far (J).
+    pub work: Real,
+    /// `kinetic + potential + spring + dissipated - work` (J; constant for an exact
+    /// integrator; `Mpc184World::energy` reports it minus its value at time 0 when asked).
+    pub total: Real,
+}
+
+/// One limit row predicted active.
+struct Active {
+    joint: usize,
+    dof: Dof,
+    /// +1: lower limit (gap = m - min), -1: upper (gap = max - m).
+    side: Real,
+    /// The DOF row (value = measure) with the side applied to the Jacobian.
+    row: RowEval,
+    slots: [Option<usize>; 2],
+    /// Desired change of the gap rate (velocity level) or of the gap (position level).
+    change: Real,
+    /// The gap rate before (velocity level).
+    before: Real,
+    dissipative: bool,
+}
+
+impl Mpc184World {
+    /// The ANSYS frame pair of joint `j` at the solver's current body states, the dynamic-body
+    /// slots of its two sides, and each side's velocity (linear at the centre of mass, angular).
+    fn effect_frames(&self, j: usize) -> Option<(FramePair, [Option<usize>; 2], [[Vector; 2]; 2])> {
+        let e = self.joints.get(j)?.as_ref()?;
+        let ls = &self.lagrange;
+        let side = |b| match ls.index.get(&b) {
+            Some(&i) => {
+                let s = &ls.st[i];
+                (s.pose, s.com, Some(i), [s.linvel, s.angvel])
+            }
+            None => {
+                let rb = &self.physics.bodies[b];
+                (
+                    *rb.position(),
+                    rb.center_of_mass(),
+                    None,
+                    [rb.linvel(), rb.angvel()],
+                )
+            }
+        };
+        let (p1, c1, i1, v1) = side(e.body1);
+        let (p2, c2, i2, v2) = side(e.body2);
+        Some((frame_pair(&e.ansys, (p1, c1), (p2, c2)), [i1, i2], [v1, v2]))
+    }
+
+    /// Adds locks engaged during the last step as permanent rows (called at a step's start).
+    pub(crate) fn effects_apply_pending_locks(&mut self) {
+        for e in self.joints.iter_mut().flatten() {
+            for (dof, value) in core::mem::take(&mut e.effects.pending) {
+                let k = dof.index();
+                let (initial, reference) = if dof.is_rotation() {
+                    (e.initial[k], e.output.measure[k])
+                } else {
+                    (0.0, 0.0)
+                };
+                e.rows
+                    .retain(|r| !matches!(r, RowKind::Drive { dof: d, .. } if *d == dof));
+                e.rows.push(RowKind::Drive {
+                    dof,
+                    target: value - e.initial[k],
+                    initial,
+                    reference,
+                });
+                self.lagrange.dirty = true;
+            }
+        }
+    }
+
+    /// True when some joint has behaviour the substep must look at.
+    pub(crate) fn effects_any(&self) -> bool {
+        self.joints
+            .iter()
+            .flatten()
+            .any(|e| !e.joint.behaviour.is_empty() || !e.effects.loads.is_empty())
+    }
+
+    /// Half a kick of the springs, dampers and loads: adds `(h/2) J^T f` to the momentum
+    /// buffer `rhs_b` (dynamic bodies by slot) and books the dampers' and loads' work.
+    pub(crate) fn effects_kick(&mut self, half: Real, time: Real) {
+        for j in 0..self.joints.len() {
+            let Some(e) = &self.joints[j] else { continue };
+            let b = &e.joint.behaviour;
+            if !b.has_forces() && e.effects.loads.is_empty() {
+                continue;
+            }
+            let Some((f, slots, vel)) = self.effect_frames(j) else {
+                continue;
+            };
+            let free = e.joint.kind.free();
+            let reference = [e.output.measure[3], e.output.measure[5]];
+            let (m, rows) = dof_rows(&f, reference);
+            let rate: [Real; 6] = core::array::from_fn(|k| {
+                rows[k].j1[0].dot(vel[0][0])
+                    + rows[k].j1[1].dot(vel[0][1])
+                    + rows[k].j2[0].dot(vel[1][0])
+                    + rows[k].j2[1].dot(vel[1][1])
+            });
+            let x: [Real; 6] = core::array::from_fn(|k| {
+                m[k] - b.reference[k].unwrap_or(e.initial[k])
+            });
+            let mut spring = [0.0; 6];
+            let mut damper = [0.0; 6];
+            let mut energy = 0.0;
+            if let Some(kmat) = &b.stiffness {
+                let kx = kmat.apply(&x, free);
+                for k in 0..6 {
+                    spring[k] -= kx[k];
+                    energy += 0.5 * x[k] * kx[k];
+                }
+            }
+            if let Some(cmat) = &b.damping {
+                let cv = cmat.apply(&rate, free);
+                for k in 0..6 {
+                    damper[k] -= cv[k];
+                }
+            }
+            for k in 0..6 {
+                if !free.contains(Dof::ALL[k]) {
+                    continue;
+                }
+                if let Some(t) = &b.stiffness_tables[k] {
+                    spring[k] -= t.eval(x[k]).0;
+                    energy += t.integral(x[k]);
+                }
+                if let Some(t) = &b.damping_tables[k] {
+                    damper[k] -= t.eval(rate[k]).0;
+                }
+            }
+            let mut load = [0.0; 6];
+            for d in &e.effects.loads {
+                load[d.dof.index()] += d.profile.value(time);
+            }
+            let total: [Real; 6] = core::array::from_fn(|k| spring[k] + damper[k] + load[k]);
+            let mut work = 0.0;
+            let mut dissipated = 0.0;
+            for k in 0..6 {
+                dissipated -= damper[k] * rate[k] * half;
+                work += load[k] * rate[k] * half;
+            }
+            let (mut f2, mut t2) = (Vector::ZERO, Vector::ZERO);
+            for (k, row) in rows.iter().enumerate() {
+                if total[k] == 0.0 {
+                    continue;
+                }
+                f2 += row.j2[0] * total[k];
+                t2 += row.j2[1] * total[k];
+                for (slot, jb) in [(slots[0], row.j1), (slots[1], row.j2)] {
+                    if let Some(i) = slot {
+                        let p = &mut self.lagrange.rhs_b[i];
+                        for a in 0..3 {
+                            p[a] += jb[0][a] * total[k] * half;
+                            p[3 + a] += jb[1][a] * total[k] * half;
+                        }
+                    }
+                }
+            }
+            self.ledger.dissipated += dissipated;
+            self.ledger.work += work;
+            let Some(e) = &mut self.joints[j] else { continue };
+            e.effects.force = total;
+            e.effects.spring_energy = energy;
+            e.effects.on_body2 = (f2, t2);
+        }
+    }
+
+    /// Collects the limits predicted active. `level`: velocity (`v` in `rhs_b`, the gap after
+    /// `h` predicted from it) or position (the gap now, after the projection).
+    fn effects_active(&self, h: Real, velocity_level: bool, tol: Real) -> Vec<Active> {
+        let mut out = Vec::new();
+        for j in 0..self.joints.len() {
+            let Some(e) = &self.joints[j] else { continue };
+            let b = &e.joint.behaviour;
+            if b.stops.is_empty() && b.locks.is_empty() {
+                continue;
+            }
+            let Some((f, slots, vel)) = self.effect_frames(j) else {
+                continue;
+            };
+            let (m, rows) = dof_rows(&f, [e.output.measure[3], e.output.measure[5]]);
+            let plastic = matches!(e.joint.method, ConstraintMethod::Penalty { .. })
+                || matches!(e.joint.kind, crate::catalogue::JointKind::Screw { .. });
+            // The velocity to predict with: the solved v' (rhs_b) for dynamic sides.
+            let v_of = |slot: Option<usize>, fallback: [Vector; 2]| match slot {
+                Some(i) if velocity_level => {
+                    let x = self.lagrange.rhs_b[i];
+                    [Vector::new(x[0], x[1], x[2]), Vector::new(x[3], x[4], x[5])]
+                }
+                _ => fallback,
+            };
+            let v1 = v_of(slots[0], vel[0]);
+            let v2 = v_of(slots[1], vel[1]);
+            let limits = b
+                .stops
+                .iter()
+                .map(|l| (l, false))
+                .chain(b.locks.iter().map(|l| (l, true)));
+            for (l, is_lock) in limits {
+                let k = l.dof.index();
+                if e.effects.locked[k].is_some() {
+                    continue;
+                }
+                let row = rows[k];
+                let rate = row.j1[0].dot(v1[0])
+                    + row.j1[1].dot(v1[1])
+                    + row.j2[0].dot(v2[0])
+                    + row.j2[1].dot(v2[1]);
+                for (side, limit) in [(1.0 as Real, l.min), (-1.0, l.max)] {
+                    if !limit.is_finite() {
+                        continue;
+                    }
+                    let gap = side * (m[k] - limit);
+                    let g_rate = side * rate;
+                    let (change, dissipative) = if velocity_level {
+                        if gap + h * g_rate >= 0.0 || g_rate >= 0.0 && gap >= 0.0 {
+                            continue;
+                        }
+                        if plastic || is_lock {
+                            ((-gap / h).max(0.0) - g_rate, true)
+                        } else if g_rate < 0.0 {
+                            // Elastic: the approach rate reversed; never leaves the body
+                            // beyond the limit at the substep's end.
+                            ((-g_rate).max(-gap / h) - g_rate, false)
+                        } else {
+                            (-gap / h - g_rate, true)
+                        }
+                    } else {
+                        if gap >= -tol {
+                            continue;
+                        }
+                        (-gap, false)
+                    };
+                    let signed = RowEval {
+                        value: gap,
+                        j1: [row.j1[0] * side, row.j1[1] * side],
+                        j2: [row.j2[0] * side, row.j2[1] * side],
+                    };
+                    out.push(Active {
+                        joint: j,
+                        dof: l.dof,
+                        side,
+                        row: signed,
+                        slots,
+                        change,
+                        before: g_rate,
+                        dissipative,
+                    });
+                    let _ = is_lock;
+                }
+            }
+        }
+        out
+    }
+
+    /// Solves for non-negative impulses on the active limits through the constrained system
+    /// (current factorisation) and applies them: to the velocities in `rhs_b` (velocity level)
+    /// or as displacements of the body states (position level, fed into the velocity as
+    /// `dx / h`). Returns the impulses.
+    fn effects_resolve(
+        &mut self,
+        active: &[Active],
+        h: Real,
+        velocity_level: bool,
+    ) -> Result<Vec<Real>, Error> {
+        let n = active.len();
+        let nb = self.lagrange.bodies.len();
+        let time = self.time;
+        let mut responses: Vec<(Vec<[Real; 6]>, Vec<Real>)> = Vec::with_capacity(n);
+        {
+            let ls = &self.lagrange;
+            let Some(kkt) = ls.kkt.as_ref() else {
+                return Ok(vec![0.0; n]);
+            };
+            for a in active {
+                let mut rb = vec![[0.0; 6]; nb];
+                let mut rj = vec![0.0; kkt.num_rows()];
+                for (slot, jb) in [(a.slots[0], a.row.j1), (a.slots[1], a.row.j2)] {
+                    if let Some(i) = slot {
+                        for c in 0..3 {
+                            rb[i][c] += jb[0][c];
+                            rb[i][3 + c] += jb[1][c];
+                        }
+                    }
+                }
+                kkt.solve(&mut rb, &mut rj).map_err(|e| Error::Diverged {
+                    time,
+                    reason: format!("joint stop solve failed: {e}"),
+                })?;
+                responses.push((rb, rj));
+            }
+        }
+        let dot = |a: &Active, dv: &[[Real; 6]]| -> Real {
+            let mut s = 0.0;
+            for (slot, jb) in [(a.slots[0], a.row.j1), (a.slots[1], a.row.j2)] {
+                if let Some(i) = slot {
+                    for c in 0..3 {
+                        s += jb[0][c] * dv[i][c] + jb[1][c] * dv[i][3 + c];
+                    }
+                }
+            }
+            s
+        };
+        let w: Vec<Vec<Real>> = active
+            .iter()
+            .map(|a| responses.iter().map(|r| dot(a, &r.0)).collect())
+            .collect();
+        // Projected Gauss-Seidel on the small Delassus system, p >= 0.
+        let mut p = vec![0.0; n];
+        for _ in 0..if n == 1 { 1 } else { 100 } {
+            for a in 0..n {
+                if w[a][a] <= 0.0 {
+                    continue;
+                }
+                let mut r = active[a].change;
+                for b in 0..n {
+                    if b != a {
+                        r -= w[a][b] * p[b];
+                    }
+                }
+                p[a] = (r / w[a][a]).max(0.0);
+            }
+        }
+        if p.iter().any(|x| !x.is_finite()) {
+            return Err(Error::Diverged {
+                time,
+                reason: "non-finite joint stop impulse".into(),
+            });
+        }
+        let ls = &mut self.lagrange;
+        for (a, (dv, dmu)) in responses.iter().enumerate() {
+            if p[a] == 0.0 {
+                continue;
+            }
+            for i in 0..nb {
+                if velocity_level {
+                    for c in 0..6 {
+                        ls.rhs_b[i][c] += p[a] * dv[i][c];
+                    }
+                } else {
+                    let d = dv[i].map(|x| x * p[a]);
+                    let s = &mut ls.st[i];
+                    crate::lagrange::displace_state(s, d);
+                    s.linvel += Vector::new(d[0], d[1], d[2]) / h;
+                    s.angvel += Vector::new(d[3], d[4], d[5]) / h;
+                }
+            }
+            // The joints' rows took -dmu with it.
+            let scale = if velocity_level { 1.0 } else { 1.0 / h };
+            for (r, m) in dmu.iter().enumerate() {
+                ls.impulse[r] -= p[a] * m * scale;
+            }
+        }
+        // Energy of the velocity-level impulses and the output.
+        for (a, act) in active.iter().enumerate() {
+            if p[a] == 0.0 {
+                continue;
+            }
+            let after = act.before
+                + (0..n)
+                    .map(|b| w[a][b] * p[b])
+                    .sum::<Real>();
+            if velocity_level {
+                let de = p[a] * 0.5 * (act.before + after);
+                if act.dissipative {
+                    self.ledger.dissipated -= de;
+                } else {
+                    // An elastic impact does no work (de = 0 up to round-off); book it so
+                    // the balance stays exact.
+                    self.ledger.work += de;
+                }
+            }
+            let impulse = if velocity_level { p[a] } else { p[a] / h };
+            if let Some(e) = &mut self.joints[act.joint] {
+                e.effects.at_stop[act.dof.index()] = true;
+                let (f, t) = &mut e.effects.on_body2;
+                *f += act.row.j2[0] * (impulse / h);
+                *t += act.row.j2[1] * (impulse / h);
+            }
+            let _ = act.side;
+        }
+        Ok(p)
+    }
+
+    /// The velocity-level limit stage, right after the velocity solve (`v'` in `rhs_b`).
+    pub(crate) fn effects_limits_velocity(&mut self, h: Real) -> Result<(), Error> {
+        let active = self.effects_active(h, true, 0.0);
+        if active.is_empty() {
+            return Ok(());
+        }
+        self.effects_resolve(&active, h, true)?;
+        // Locks that acted engage now (held at their limit from here on).
+        for a in &active {
+            let Some(e) = &mut self.joints[a.joint] else {
+                continue;
+            };
+            let b = &e.joint.behaviour;
+            let k = a.dof.index();
+            if e.effects.locked[k].is_some() {
+                continue;
+            }
+            if let Some(l) = b.locks.iter().find(|l| l.dof == a.dof) {
+                let value = if a.side > 0.0 { l.min } else { l.max };
+                e.effects.locked[k] = Some(value);
+                e.effects.pending.push((a.dof, value));
+            }
+        }
+        Ok(())
+    }
+
+    /// The position-level limit stage after the projection: limits violated by more than
+    /// `tol` are projected back; locks engaged this step are held at their values until their
+    /// row joins at the next step.
+    pub(crate) fn effects_limits_position(&mut self, h: Real, tol: Real) -> Result<(), Error> {
+        let mut active = self.effects_active(h, false, tol);
+        // Locked DOFs whose row is still pending: hold them at their value (both sides).
+        for j in 0..self.joints.len() {
+            let Some(e) = &self.joints[j] else { continue };
+            if e.effects.pending.is_empty() {
+                continue;
+            }
+            let Some((f, slots, _)) = self.effect_frames(j) else {
+                continue;
+            };
+            let (m, rows) = dof_rows(&f, [e.output.measure[3], e.output.measure[5]]);
+            for &(dof, value) in &e.effects.pending {
+                let k = dof.index();
+                let d = m[k] - value;
+                if d.abs() <= tol {
+                    continue;
+                }
+                let side = if d < 0.0 { 1.0 } else { -1.0 };
+                let row = rows[k];
+                active.push(Active {
+                    joint: j,
+                    dof,
+                    side,
+                    row: RowEval {
+                        value: side * d,
+                        j1: [row.j1[0] * side, row.j1[1] * side],
+                        j2: [row.j2[0] * side, row.j2[1] * side],
+                    },
+                    slots,
+                    change: d.abs(),
+                    before: 0.0,
+                    dissipative: true,
+                });
+            }
+        }
+        if active.is_empty() {
+            return Ok(());
+        }
+        self.effects_resolve(&active, h, false)?;
+        Ok(())
+    }
+
+    /// Resets the per-step limit flags (called at a step's start).
+    pub(crate) fn effects_begin_step(&mut self) {
+        for e in self.joints.iter_mut().flatten() {
+            e.effects.at_stop = [false; 6];
+        }
+    }
+
+    /// Resets the per-substep force accumulators (called before a substep's first kick).
+    pub(crate) fn effects_begin_substep(&mut self) {
+        for e in self.joints.iter_mut().flatten() {
+            e.effects.on_body2 = (Vector::ZERO, Vector::ZERO);
+        }
+    }
+
+    /// Applies a force or moment along a free DOF (`FJ,elem,FX..MZ`; N or N m on node J, the
+    /// reaction on node I) following `profile` in time. Replaces an earlier load on that DOF.
+    #[doc(alias = "FJ")]
+    pub fn set_load(
+        &mut self,
+        id: crate::error::JointId,
+        dof: Dof,
+        profile: crate::world::DriveProfile,
+    ) -> Result<(), Error> {
+        if self.settings().backend != crate::lower::Backend::Lagrange {
+            return Err(Error::Unsupported {
+                what: format!(
+                    "an applied joint load (FJ) on the {} backend",
+                    self.settings().backend.name()
+                ),
+                hint: "joint loads act on the Lagrange backend".into(),
+            });
+        }
+        let entry = self
+            .joints
+            .get_mut(id.0 as usize)
+            .and_then(Option::as_mut)
+            .ok_or(Error::UnknownJoint(id))?;
+        if !entry.joint.kind.free().contains(dof) {
+            return Err(Error::InvalidDof {
+                joint: id,
+                dof,
+                reason: format!("not a free DOF of a {} joint", entry.joint.kind.name()),
+            });
+        }
+        if !(profile.t0.is_finite()
+            && profile.t1.is_finite()
+            && profile.from.is_finite()
+            && profile.to.is_finite())
+        {
+            return Err(Error::InvalidDof {
+                joint: id,
+                dof,
+                reason: "non-finite load profile".into(),
+            });
+        }
+        entry.effects.loads.retain(|d| d.dof != dof);
+        entry.effects.loads.push(Drive { dof, profile });
+        Ok(())
+    }
+
+    /// Removes the applied load on a DOF (`FJDELE`).
+    #[doc(alias = "FJDELE")]
+    pub fn remove_load(&mut self, id: crate::error::JointId, dof: Dof) -> Result<(), Error> {
+        let entry = self
+            .joints
+            .get_mut(id.0 as usize)
+            .and_then(Option::as_mut)
+            .ok_or(Error::UnknownJoint(id))?;
+        entry.effects.loads.retain(|d| d.dof != dof);
+        Ok(())
+    }
+
+    /// The energy balance now: kinetic, gravitational, spring, dissipated and the work of
+    /// loads and drives (see [`EnergyReport`]).
+    pub fn energy(&self) -> EnergyReport {
+        let kinetic = self.kinetic_energy();
+        let potential = self.potential_energy();
+        let spring: Real = self
+            .joints
+            .iter()
+            .flatten()
+            .map(|e| e.output.spring_energy)
+            .sum();
+        let EnergyLedger { dissipated, work } = self.ledger;
+        EnergyReport {
+            kinetic,
+            potential,
+            spring,
+            dissipated,
+            work,
+            total: kinetic + potential + spring + dissipated - work,
+        }
+    }
+}
