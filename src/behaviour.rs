@@ -327,7 +327,10 @@ impl Behaviour {
             .enumerate()
             .find_map(|(k, r)| r.filter(|v| !v.is_finite()).map(|v| (k, v)))
         {
-            return Err(("SECDATA", format!("reference {} is {v}", Dof::ALL[k].label())));
+            return Err((
+                "SECDATA",
+                format!("reference {} is {v}", Dof::ALL[k].label()),
+            ));
         }
         Ok(())
     }

@@ -116,13 +116,13 @@ pub(crate) struct LagrangeState {
     pub(crate) st: Vec<BodyState>,
     mass: Vec<[Real; 36]>,
     jac: Vec<Real>,
-    compliance: Vec<Real>,
+    pub(crate) compliance: Vec<Real>,
     /// Per row: constraint value, kinematic-body velocity term, whether it is a penalty row.
     value: Vec<Real>,
     kin: Vec<Real>,
     penalty: Vec<bool>,
     /// Penalty stiffness per row (0 on Lagrange rows).
-    kpen: Vec<Real>,
+    pub(crate) kpen: Vec<Real>,
     /// Prescribed rate of each row over the current substep (drives; 0 elsewhere).
     pub(crate) rate: Vec<Real>,
     /// Scale of the hard rows' regularisation (raised by a failing projection).
@@ -913,7 +913,11 @@ pub fn penalty_stiffness(val: Real, default: Real) -> Real {
 /// Moves a body's centre of mass by `dx` and turns it by the rotation vector `dth` about it.
 /// [`displace`] by a 6-vector `[dx; dth]`, refreshing the world inertia.
 pub(crate) fn displace_state(s: &mut BodyState, d: [Real; 6]) {
-    displace(s, Vector::new(d[0], d[1], d[2]), Vector::new(d[3], d[4], d[5]));
+    displace(
+        s,
+        Vector::new(d[0], d[1], d[2]),
+        Vector::new(d[3], d[4], d[5]),
+    );
     s.refresh_inertia();
 }
 

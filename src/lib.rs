@@ -2,10 +2,10 @@
 pub mod behaviour;
 pub mod benchmarks;
 pub mod catalogue;
-pub mod effects;
 pub mod dof;
 #[cfg(feature = "ecs")]
 pub mod ecs;
+pub mod effects;
 pub mod error;
 pub mod joint;
 pub mod kinematics;
@@ -26,8 +26,8 @@ pub use world::Mpc184World;
 pub mod prelude {
     pub use crate::behaviour::{Behaviour, Limit, Sym6, Table};
     pub use crate::catalogue::{Axis, JointKind};
-    pub use crate::effects::EnergyReport;
     pub use crate::dof::{Dof, DofMask};
+    pub use crate::effects::EnergyReport;
     pub use crate::error::{Error, JointId};
     pub use crate::joint::{ConstraintMethod, Mpc184Joint};
     pub use crate::lower::Backend;
