@@ -1,6 +1,7 @@
 #![doc = include_str!("../README.md")]
 pub mod benchmarks;
 pub mod catalogue;
+pub mod deck;
 pub mod dof;
 #[cfg(feature = "ecs")]
 pub mod ecs;
