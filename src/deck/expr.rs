@@ -159,7 +159,10 @@ fn tokenize(text: &str) -> Result<Vec<Token>, ExprError> {
             }
             c if c.is_ascii_digit() || c == '.' => {
                 let start = i;
-                while chars.get(i).is_some_and(|c| c.is_ascii_digit() || *c == '.') {
+                while chars
+                    .get(i)
+                    .is_some_and(|c| c.is_ascii_digit() || *c == '.')
+                {
                     i += 1;
                 }
                 if chars.get(i).is_some_and(|c| matches!(c, 'e' | 'E')) {
@@ -347,10 +350,7 @@ impl Parser<'_> {
     fn call(&self, name: &str, args: &[f64]) -> Result<f64, ExprError> {
         let (to_rad, from_rad) = match self.unit {
             AngleUnit::Radians => (1.0, 1.0),
-            AngleUnit::Degrees => (
-                core::f64::consts::PI / 180.0,
-                180.0 / core::f64::consts::PI,
-            ),
+            AngleUnit::Degrees => (core::f64::consts::PI / 180.0, 180.0 / core::f64::consts::PI),
         };
         let arity = |n: usize| -> Result<(), ExprError> {
             if args.len() == n {

@@ -168,9 +168,21 @@ impl CoordinateSystem {
     /// Builds the system ANSYS `LOCAL,id,0,origin,thxy,thyz,thzx` defines (angles in degrees).
     pub fn from_local(id: u32, origin: [f64; 3], angles_deg: [f64; 3], line: usize) -> Self {
         let [a, b, c] = angles_deg.map(f64::to_radians);
-        let rz = [[a.cos(), -a.sin(), 0.0], [a.sin(), a.cos(), 0.0], [0.0, 0.0, 1.0]];
-        let rx = [[1.0, 0.0, 0.0], [0.0, b.cos(), -b.sin()], [0.0, b.sin(), b.cos()]];
-        let ry = [[c.cos(), 0.0, c.sin()], [0.0, 1.0, 0.0], [-c.sin(), 0.0, c.cos()]];
+        let rz = [
+            [a.cos(), -a.sin(), 0.0],
+            [a.sin(), a.cos(), 0.0],
+            [0.0, 0.0, 1.0],
+        ];
+        let rx = [
+            [1.0, 0.0, 0.0],
+            [0.0, b.cos(), -b.sin()],
+            [0.0, b.sin(), b.cos()],
+        ];
+        let ry = [
+            [c.cos(), 0.0, c.sin()],
+            [0.0, 1.0, 0.0],
+            [-c.sin(), 0.0, c.cos()],
+        ];
         CoordinateSystem {
             id,
             origin,

@@ -8,8 +8,8 @@ use crate::deck::expr::{AngleUnit, ExprError, MAX_DEPTH, evaluate};
 use crate::deck::model::{
     AnalysisType, CoordinateSystem, Deck, DofLabel, DofRange, Element, ElementName, ElementType,
     ForceLabel, InitialCondition, JoinTable, JointLoad, JointMotion, JointSection, JointSubtype,
-    LoadRamp, LoadStep, NodalConstraint, NodalForce, Node, NodeAxis, Note,
-    RealConstants, RigidRegion, SpotweldCenter, Substeps, TimeIncrement,
+    LoadRamp, LoadStep, NodalConstraint, NodalForce, Node, NodeAxis, Note, RealConstants,
+    RigidRegion, SpotweldCenter, Substeps, TimeIncrement,
 };
 
 /// Reads a deck from text. `file` is only used in error messages and [`Deck::file`].
@@ -392,15 +392,11 @@ impl Reader {
                 Ok(())
             }
             "NLGEOM" => {
-                self.note(
-                    "NLGEOM: rigid bodies always undergo finite rotations here; ignored",
-                );
+                self.note("NLGEOM: rigid bodies always undergo finite rotations here; ignored");
                 Ok(())
             }
             "TINTP" => {
-                self.note(
-                    "TINTP: the time integrator is the simulator's (its settings); ignored",
-                );
+                self.note("TINTP: the time integrator is the simulator's (its settings); ignored");
                 Ok(())
             }
             "TRNOPT" => match self.label(1).as_deref() {
@@ -428,7 +424,9 @@ impl Reader {
                         let unit = self.deck.angle_unit;
                         self.note(format!("*AFUN: angle unit is {unit:?}"));
                     }
-                    Some(other) => return Err(self.invalid(1, format!("`{other}`: use DEG or RAD"))),
+                    Some(other) => {
+                        return Err(self.invalid(1, format!("`{other}`: use DEG or RAD")));
+                    }
                 }
                 Ok(())
             }
@@ -545,9 +543,12 @@ impl Reader {
 
     fn et(&mut self) -> Res<()> {
         let id = self.required_id(1, "ITYPE")?;
-        let name = self
-            .label(2)
-            .ok_or_else(|| self.err(DeckErrorKind::MissingField { field: 2, name: "Ename" }))?;
+        let name = self.label(2).ok_or_else(|| {
+            self.err(DeckErrorKind::MissingField {
+                field: 2,
+                name: "Ename",
+            })
+        })?;
         let element = match name.as_str() {
             "MPC184" | "184" => ElementName::Mpc184,
             "MASS21" | "21" => ElementName::Mass21,
@@ -796,9 +797,12 @@ impl Reader {
                 "only JOINT sections are read; rigid bodies need no section",
             ));
         }
-        let sub = self
-            .label(3)
-            .ok_or_else(|| self.err(DeckErrorKind::MissingField { field: 3, name: "Subtype" }))?;
+        let sub = self.label(3).ok_or_else(|| {
+            self.err(DeckErrorKind::MissingField {
+                field: 3,
+                name: "Subtype",
+            })
+        })?;
         let subtype = JointSubtype::from_label(&sub).ok_or_else(|| {
             self.invalid(
                 3,
@@ -896,7 +900,9 @@ impl Reader {
                     "DISP" => s.penalty_displacement = Some(v),
                     "ROT" => s.penalty_rotation = Some(v),
                     other => {
-                        return Err(self.invalid(2, format!("PNLT takes DISP or ROT, got `{other}`")));
+                        return Err(
+                            self.invalid(2, format!("PNLT takes DISP or ROT, got `{other}`"))
+                        );
                     }
                 }
             }
@@ -914,7 +920,9 @@ impl Reader {
                     }
                     other => {
                         let other = other.unwrap_or_default().to_string();
-                        return Err(self.invalid(2, format!("SPWE takes RATIO or COORD, got `{other}`")));
+                        return Err(
+                            self.invalid(2, format!("SPWE takes RATIO or COORD, got `{other}`"))
+                        );
                     }
                 };
                 self.section_mut()?.spotweld_center = Some(center);
@@ -965,7 +973,10 @@ impl Reader {
             return Err(self.invalid(10, "at most three dof,min,max triples per command"));
         }
         if ranges.is_empty() {
-            return Err(self.err(DeckErrorKind::MissingField { field: 1, name: "dof" }));
+            return Err(self.err(DeckErrorKind::MissingField {
+                field: 1,
+                name: "dof",
+            }));
         }
         let s = self.section_mut()?;
         let list = if lock { &mut s.locks } else { &mut s.stops };
@@ -1052,9 +1063,12 @@ impl Reader {
             n if n >= 0 => u32::try_from(n).unwrap_or(u32::MAX),
             n => return Err(self.invalid(4, format!("NPTS must not be negative, got {n}"))),
         };
-        let tbopt = self
-            .label(5)
-            .ok_or_else(|| self.err(DeckErrorKind::MissingField { field: 5, name: "TBOPT" }))?;
+        let tbopt = self.label(5).ok_or_else(|| {
+            self.err(DeckErrorKind::MissingField {
+                field: 5,
+                name: "TBOPT",
+            })
+        })?;
         if self.raw(7).is_some() {
             return Err(self.unsupported(
                 "TB,JOIN with a function name",
@@ -1062,7 +1076,9 @@ impl Reader {
             ));
         }
         if !known_tbopt(&tbopt) {
-            self.note(format!("TB: TBOPT {tbopt} is not one this reader knows; stored as given"));
+            self.note(format!(
+                "TB: TBOPT {tbopt} is not one this reader knows; stored as given"
+            ));
         }
         let table = JoinTable {
             material,
@@ -1201,9 +1217,12 @@ impl Reader {
 
     fn nodal_load(&mut self, cmd: &str) -> Res<()> {
         let nodes = self.node_range(1, 5, 6)?;
-        let lab = self
-            .label(2)
-            .ok_or_else(|| self.err(DeckErrorKind::MissingField { field: 2, name: "Lab" }))?;
+        let lab = self.label(2).ok_or_else(|| {
+            self.err(DeckErrorKind::MissingField {
+                field: 2,
+                name: "Lab",
+            })
+        })?;
         let value = self.num0(3)?;
         let value2 = self.num0(4)?;
         let line = self.line;
@@ -1230,21 +1249,30 @@ impl Reader {
                 }
                 for node in nodes {
                     for dof in &dofs {
-                        let c = NodalConstraint { node, dof: *dof, value, line };
+                        let c = NodalConstraint {
+                            node,
+                            dof: *dof,
+                            value,
+                            line,
+                        };
                         self.loads.d.insert((node, *dof), c);
                     }
                 }
                 self.touched();
             }
             "F" => {
-                let label = ForceLabel::from_label(&lab).ok_or_else(|| {
-                    self.invalid(2, format!("`{lab}` is not FX FY FZ MX MY MZ"))
-                })?;
+                let label = ForceLabel::from_label(&lab)
+                    .ok_or_else(|| self.invalid(2, format!("`{lab}` is not FX FY FZ MX MY MZ")))?;
                 if value2 != 0.0 {
                     return Err(self.unsupported("complex F values (VALUE2)", "leave VALUE2 blank"));
                 }
                 for node in nodes {
-                    let f = NodalForce { node, label, value, line };
+                    let f = NodalForce {
+                        node,
+                        label,
+                        value,
+                        line,
+                    };
                     self.loads.f.insert((node, label), f);
                 }
                 self.touched();
@@ -1281,8 +1309,10 @@ impl Reader {
             let dofs: Vec<DofLabel> = if lab == "ALL" {
                 DofLabel::ALL.to_vec()
             } else {
-                vec![DofLabel::from_label(&lab)
-                    .ok_or_else(|| self.invalid(2, format!("`{lab}` is not a DOF label")))?]
+                vec![
+                    DofLabel::from_label(&lab)
+                        .ok_or_else(|| self.invalid(2, format!("`{lab}` is not a DOF label")))?,
+                ]
             };
             for n in nodes {
                 for dof in &dofs {
@@ -1293,8 +1323,10 @@ impl Reader {
             let labels: Vec<ForceLabel> = if lab == "ALL" {
                 ForceLabel::ALL.to_vec()
             } else {
-                vec![ForceLabel::from_label(&lab)
-                    .ok_or_else(|| self.invalid(2, format!("`{lab}` is not a force label")))?]
+                vec![
+                    ForceLabel::from_label(&lab)
+                        .ok_or_else(|| self.invalid(2, format!("`{lab}` is not a force label")))?,
+                ]
             };
             for n in nodes {
                 for l in &labels {
@@ -1334,9 +1366,12 @@ impl Reader {
 
     fn joint_load(&mut self, dj: bool) -> Res<()> {
         let elems = self.joint_elements(1)?;
-        let lab = self
-            .label(2)
-            .ok_or_else(|| self.err(DeckErrorKind::MissingField { field: 2, name: "Label" }))?;
+        let lab = self.label(2).ok_or_else(|| {
+            self.err(DeckErrorKind::MissingField {
+                field: 2,
+                name: "Label",
+            })
+        })?;
         let value = self.num0(3)?;
         let line = self.line;
         if dj {
@@ -1347,14 +1382,25 @@ impl Reader {
                 )
             })?;
             for element in elems {
-                let m = JointMotion { element, dof, kind, value, line };
+                let m = JointMotion {
+                    element,
+                    dof,
+                    kind,
+                    value,
+                    line,
+                };
                 self.loads.dj.insert((element, dof), m);
             }
         } else {
             let label = ForceLabel::from_label(&lab)
                 .ok_or_else(|| self.invalid(2, format!("`{lab}` is not FX FY FZ MX MY MZ")))?;
             for element in elems {
-                let l = JointLoad { element, label, value, line };
+                let l = JointLoad {
+                    element,
+                    label,
+                    value,
+                    line,
+                };
                 self.loads.fj.insert((element, label), l);
             }
         }
@@ -1369,21 +1415,23 @@ impl Reader {
             let which = if lab == "ALL" {
                 None
             } else {
-                Some(JointMotion::parse_label(&lab).ok_or_else(|| {
-                    self.invalid(2, format!("`{lab}` is not a DJ label"))
-                })?)
+                Some(
+                    JointMotion::parse_label(&lab)
+                        .ok_or_else(|| self.invalid(2, format!("`{lab}` is not a DJ label")))?,
+                )
             };
             self.loads.dj.retain(|(e, _), m| {
                 !(elems.contains(e) && which.is_none_or(|(d, k)| m.dof == d && m.kind == k))
             });
         } else {
-            let which = if lab == "ALL" {
-                None
-            } else {
-                Some(ForceLabel::from_label(&lab).ok_or_else(|| {
-                    self.invalid(2, format!("`{lab}` is not FX FY FZ MX MY MZ"))
-                })?)
-            };
+            let which =
+                if lab == "ALL" {
+                    None
+                } else {
+                    Some(ForceLabel::from_label(&lab).ok_or_else(|| {
+                        self.invalid(2, format!("`{lab}` is not FX FY FZ MX MY MZ"))
+                    })?)
+                };
             self.loads
                 .fj
                 .retain(|(e, l), _| !(elems.contains(e) && which.is_none_or(|w| *l == w)));
@@ -1486,7 +1534,9 @@ impl Reader {
         match et.element {
             ElementName::Mass21 => {
                 if e.i.is_none() || e.j.is_some() {
-                    return Err(self.invalid(0, format!("MASS21 element {} takes node I only", e.id)));
+                    return Err(
+                        self.invalid(0, format!("MASS21 element {} takes node I only", e.id))
+                    );
                 }
                 if !self.deck.real_constants.contains_key(&e.real) {
                     return Err(self.missing(format!(
@@ -1525,7 +1575,10 @@ impl Reader {
                 } else if e.i == e.j {
                     return Err(self.invalid(
                         0,
-                        format!("rigid link/beam element {} joins node {:?} to itself", e.id, e.i),
+                        format!(
+                            "rigid link/beam element {} joins node {:?} to itself",
+                            e.id, e.i
+                        ),
                     ));
                 }
             }
@@ -1562,7 +1615,10 @@ mod tests {
 
     #[test]
     fn fields_split_outside_parentheses() {
-        assert_eq!(split_fields("N,1,ATAN2(1,2), 3"), ["N", "1", "ATAN2(1,2)", "3"]);
+        assert_eq!(
+            split_fields("N,1,ATAN2(1,2), 3"),
+            ["N", "1", "ATAN2(1,2)", "3"]
+        );
         assert_eq!(split_fields(",,"), ["", "", ""]);
     }
 }
