@@ -1,5 +1,7 @@
 //! Errors of the deck reader: every error names the file, the line and the command.
 
+use crate::deck::model::JointSubtype;
+
 /// A deck that could not be read, with where and why.
 ///
 /// Displays as `FILE:LINE: COMMAND: what is wrong`, the form compilers use, so editors can jump
@@ -91,21 +93,23 @@ pub enum DeckErrorKind {
     },
     /// An MPC184 joint element whose section subtype disagrees with its element type's KEYOPT(1).
     #[error(
-        "element {element}: section {section} is JOINT,{subtype} but element type {element_type} has KEYOPT(1) = {keyopt1} ({expected})"
+        "element {element}: section {section} is JOINT,{} but element type {element_type} has KEYOPT(1) = {keyopt1} ({})",
+        .subtype.label(),
+        .expected.label()
     )]
     SubtypeMismatch {
         /// The element number.
         element: u32,
         /// The section id (SECNUM of the element).
         section: u32,
-        /// The section subtype (`REVO`, ...).
-        subtype: String,
+        /// The section subtype.
+        subtype: JointSubtype,
         /// The element type number.
         element_type: u32,
         /// KEYOPT(1) of the element type.
         keyopt1: i64,
         /// The subtype that KEYOPT(1) asks for.
-        expected: String,
+        expected: JointSubtype,
     },
     /// The file could not be read.
     #[error("cannot read the file: {0}")]

@@ -681,11 +681,12 @@ pub struct JoinTable {
     pub temperature: Option<f64>,
     /// Constants from `TBDATA`: `constants[k - 1]` is Ck (None where never given). For STIF and
     /// DAMP, C1..C21 are the lower triangle of the 6x6 matrix by columns (N/m, N m/rad, N s/m ...);
-    /// for MUSn, C1 is the static friction coefficient; for EXPn, C1..C3 = mu_s, mu_d, c.
+    /// for `MUSn`, C1 is the static friction coefficient; for `EXPn`, C1..C3 = static and dynamic
+    /// coefficients and the decay coefficient (s/m).
     #[doc(alias = "TBDATA")]
     pub constants: Vec<Option<f64>>,
     /// `TBPT` points (x, y) in order: relative displacement/rotation/velocity against force or
-    /// moment, or (for MUSn with NPTS > 0) the table the option defines.
+    /// moment, or (for `MUSn` with NPTS > 0) the table the option defines.
     #[doc(alias = "TBPT")]
     pub points: Vec<[f64; 2]>,
     /// 1-based line of the `TB` command.

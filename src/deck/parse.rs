@@ -1561,10 +1561,10 @@ impl Reader {
                         return Err(self.err(DeckErrorKind::SubtypeMismatch {
                             element: e.id,
                             section: s.id,
-                            subtype: s.subtype.label().into(),
+                            subtype: s.subtype,
                             element_type: et.id,
                             keyopt1: k1,
-                            expected: expected.label().into(),
+                            expected,
                         }));
                     }
                 } else if e.i.is_none() || e.j.is_none() {
