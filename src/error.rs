@@ -98,4 +98,7 @@ pub enum Error {
         /// What diverged (names the joint or body).
         reason: String,
     },
+    /// An APDL deck that could not be read.
+    #[error(transparent)]
+    Deck(#[from] crate::deck::DeckError),
 }

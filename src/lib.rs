@@ -2,6 +2,7 @@
 pub mod behaviour;
 pub mod benchmarks;
 pub mod catalogue;
+pub mod deck;
 pub mod dof;
 #[cfg(feature = "ecs")]
 pub mod ecs;
