@@ -6,9 +6,10 @@
 //! motion is chaotic, so the figures are energy conservation, joint gaps and reactions, not a
 //! trajectory.
 //!
-//! Expected: energy conserved (drift and oscillation printed per m g L = 9.81 J; the Lagrange
-//! and multibody backends stay at a few 1e-3 or below, Rapier impulse loses energy), gaps 1e-10 m
-//! on the Lagrange backend. Reactions: from the 2-DOF equations of motion (angles from the
+//! Expected: energy conserved (drift = mean of the last 30 % of the run minus the first 30 %, and
+//! oscillation = largest |E - E0|, both per m g L = 9.81 J) and joints closed. Measured at the
+//! defaults (10 s): Lagrange drift -4e-4, oscillation 1.6e-2, gaps 1e-10 m; Rapier multibody
+//! drift -0.17, Rapier impulse -0.35 with millimetre gaps. Reactions: from the 2-DOF equations of motion (angles from the
 //! downward vertical, bead inertia included), the horizontal release at rest gives
 //! `theta1'' = -g/L (1 + 2 I/(m L^2)) / det`, `theta2'' = -g I/(m L^2) / det`: both beads start
 //! in free fall and the links are slack, |F1| = 9.8e-5 N and |F2| = 9.8e-10 N. The demo computes
