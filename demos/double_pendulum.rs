@@ -17,6 +17,10 @@
 //! simulated reactions along the motion with the same equations evaluated at the simulated state
 //! (the simulated reaction is the last substep's mean, so the two differ by O(h)).
 //!
+//! In the f32 build (`--no-default-features --features f32`) the Lagrange backend fails this
+//! scene at the first step (bead inertia 1e-5 against m L^2 = 1: "rows dependent on one body but
+//! not redundant"); the demo prints the error as the run's status.
+//!
 //! CSV (`out/double_pendulum/double_pendulum_<backend>.csv`): the initial state, then one row per
 //! step.
 
@@ -143,20 +147,21 @@ fn run(o: Opts) -> RunResult {
     for &backend in &o.backends {
         println!("\n## {}", backend.name());
         // The reaction at t = 0: one probe step of 1e-6 s.
-        let probe = build(backend, 1e-6, o.substeps).and_then(|mut p| {
+        match build(backend, 1e-6, o.substeps).and_then(|mut p| {
             p.world.step()?;
             forces(&p)
-        });
-        let mut b = match (probe, build(backend, o.dt, o.substeps)) {
-            (Ok(f0), Ok(b)) => {
-                println!(
-                    "t = 0 (probe step of 1e-6 s): |F1| = {:.4e} N, |F2| = {:.4e} N",
-                    f0[0], f0[1]
-                );
-                b
-            }
-            (Err(e), _) | (_, Err(e)) => {
+        }) {
+            Ok(f0) => println!(
+                "t = 0 (probe step of 1e-6 s): |F1| = {:.4e} N, |F2| = {:.4e} N",
+                f0[0], f0[1]
+            ),
+            Err(e) => println!("t = 0 probe step of 1e-6 s failed: {e}"),
+        }
+        let mut b = match build(backend, o.dt, o.substeps) {
+            Ok(b) => b,
+            Err(e) => {
                 println!("{e}");
+                summary.push(format!("{:<18} {e}", backend.name()));
                 continue;
             }
         };

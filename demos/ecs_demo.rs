@@ -3,7 +3,7 @@
 //! Scene, as `bevy_ecs` entities driven by `Mpc184Plugin` (a bare `World` + `Schedule`, one
 //! `schedule.run` per frame of 1/60 s, 4 substeps, gravity -Y): a pendulum (1 kg bob with
 //! inertia 1e-4 kg m^2, 1 m, grounded revolute z at the origin, released at rest at 60 deg) and,
-//! 2 m behind it, a two-link chain (0.5 m links, 0.5 kg beads with inertia 1e-5 kg m^2,
+//! 2 m behind it, a two-link chain (0.5 m links, 0.5 kg beads with inertia 5e-5 kg m^2,
 //! released straight at 45 deg). At frame `--despawn-at` the entity of the chain's second joint
 //! is despawned: the plugin removes the joint, the first link swings on as a simple pendulum and
 //! the second bead flies free.
@@ -103,7 +103,7 @@ fn run(o: Opts) -> RunResult {
     let (mc, lc, a0) = (0.5 as Real, 0.5 as Real, PI / 4.0);
     let base = Vector::new(0.0, 0.0, 2.0);
     let dir = Vector::new(a0.sin(), -a0.cos(), 0.0);
-    let bead = |k: Real| Mpc184Body::dynamic(base + dir * (k * lc), mc, Vector::splat(mc * 1e-5));
+    let bead = |k: Real| Mpc184Body::dynamic(base + dir * (k * lc), mc, Vector::splat(mc * 1e-4));
     let bead1 = world.spawn(bead(1.0)).id();
     let bead2 = world.spawn(bead(2.0)).id();
     let link1 = hinge(&mut world, base, None, bead1);
