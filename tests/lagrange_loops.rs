@@ -53,6 +53,10 @@ fn bricard_mechanism_keeps_moving_with_its_redundant_constraint() {
         "the redundant constraint was not reported: {:?}",
         diag.warnings
     );
+    assert_eq!(
+        diag.redundant_rows, 1,
+        "30 rows of rank 29: one redundant row after the run"
+    );
 }
 
 #[test]
