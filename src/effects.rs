@@ -606,6 +606,29 @@ impl Mpc184World {
         Ok(())
     }
 
+    /// Books the work of the prescribed motions (DJ) over the substep just taken: each drive
+    /// row's impulse times its prescribed rate (`lambda . J v` with `J v` = the rate).
+    pub(crate) fn effects_book_drive_work(&mut self) {
+        let mut work = 0.0;
+        for (j, e) in self.joints.iter().enumerate() {
+            let Some(e) = e else { continue };
+            if e.drives.is_empty() {
+                continue;
+            }
+            let Some(range) = self.lagrange.rows_of(j) else {
+                continue;
+            };
+            for (row, r) in e.rows.iter().zip(range) {
+                if let RowKind::Drive { dof, .. } = row
+                    && e.drives.iter().any(|d| d.dof == *dof)
+                {
+                    work += self.lagrange.impulse[r] * self.lagrange.rate[r];
+                }
+            }
+        }
+        self.ledger.work += work;
+    }
+
     /// Resets the per-step limit flags (called at a step's start).
     pub(crate) fn effects_begin_step(&mut self) {
         for e in self.joints.iter_mut().flatten() {

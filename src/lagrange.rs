@@ -807,6 +807,7 @@ impl Mpc184World {
             self.lagrange.written[i] = (s.pose, s.linvel, s.angvel);
         }
         self.lagrange.factor_valid = Some(h);
+        self.effects_book_drive_work();
         self.update_screw_references();
         Ok(())
     }
