@@ -159,12 +159,6 @@ fn lagrange_support(kind: &JointKind) -> Result<(), Error> {
         .filter(|d| d.is_rotation())
         .count();
     match kind {
-        JointKind::Spotweld => Err(Error::Unsupported {
-            what: "the spotweld 6x6 spring/damper".into(),
-            hint: "a spotweld has no rigid rows, only TB,JOIN stiffness, which comes with the \
-                   joint-behaviour work"
-                .into(),
-        }),
         JointKind::Genb { .. } if locked_rotations == 1 || locked_rotations == 2 => {
             Err(Error::Unsupported {
                 what: "a genb joint locking some but not all of its 3-1-3 Euler angles".into(),
@@ -184,6 +178,7 @@ fn lagrange_support(kind: &JointKind) -> Result<(), Error> {
         | JointKind::Spherical
         | JointKind::General { .. }
         | JointKind::Screw { .. }
+        | JointKind::Spotweld
         | JointKind::Genb { .. } => Ok(()),
     }
 }
