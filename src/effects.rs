@@ -685,7 +685,7 @@ impl Mpc184World {
             });
         }
         entry.effects.loads.retain(|d| d.dof != dof);
-        entry.effects.loads.push(Drive { dof, profile });
+        entry.effects.loads.push(Drive::new(dof, profile));
         Ok(())
     }
 

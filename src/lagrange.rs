@@ -826,7 +826,7 @@ impl Mpc184World {
                 if let RowKind::Drive { dof, target, .. } = row
                     && let Some(d) = e.drives.iter().find(|d| d.dof == *dof)
                 {
-                    let (v0, v1) = (d.profile.value(t1 - h), d.profile.value(t1));
+                    let (v0, v1) = (d.value(t1 - h), d.value(t1));
                     *target = v1;
                     ls.rate[r0 + n] = (v1 - v0) / h;
                 }

@@ -137,8 +137,11 @@ fn linear_damping_table_decays_like_the_damping_matrix() {
 fn bad_tables_and_mixed_laws_are_errors_naming_the_table() {
     let mut world = Mpc184World::new(WorldSettings::default());
     let b = world.physics.bodies.insert(
-        RigidBodyBuilder::dynamic()
-            .additional_mass_properties(MassProperties::new(Vector::ZERO, M, Vector::splat(0.1))),
+        RigidBodyBuilder::dynamic().additional_mass_properties(MassProperties::new(
+            Vector::ZERO,
+            M,
+            Vector::splat(0.1),
+        )),
     );
     let base = Mpc184Joint::new(JointKind::Translational, Vector::ZERO);
     let unsorted = base.clone().with_stiffness_table(
@@ -148,7 +151,10 @@ fn bad_tables_and_mixed_laws_are_errors_naming_the_table() {
         },
     );
     let e = world.insert_joint(None, Some(b), unsorted).unwrap_err();
-    assert!(e.to_string().contains("JNS1") && e.to_string().contains("increasing"), "{e}");
+    assert!(
+        e.to_string().contains("JNS1") && e.to_string().contains("increasing"),
+        "{e}"
+    );
     let mixed = base
         .clone()
         .with_stiffness(Sym6::diagonal([K, 0.0, 0.0, 0.0, 0.0, 0.0]))
@@ -157,5 +163,8 @@ fn bad_tables_and_mixed_laws_are_errors_naming_the_table() {
     assert!(e.to_string().contains("linear or nonlinear"), "{e}");
     let constrained = base.with_stop(Dof::Uy, -1.0, 1.0);
     let e = world.insert_joint(None, Some(b), constrained).unwrap_err();
-    assert!(e.to_string().contains("SECSTOP") && e.to_string().contains("UY"), "{e}");
+    assert!(
+        e.to_string().contains("SECSTOP") && e.to_string().contains("UY"),
+        "{e}"
+    );
 }
