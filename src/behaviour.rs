@@ -190,6 +190,159 @@ impl Table {
     }
 }
 
+/// A joint friction law (`TB,JOIN,,,,MUSn` or `EXPn`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub enum FrictionLaw {
+    /// Coulomb: a constant coefficient (`MUSn` with TBDATA).
+    #[doc(alias = "MUS1")]
+    Coulomb(Real),
+    /// Coulomb with the coefficient tabulated against the slip rate (`MUSn` with TBPT pairs,
+    /// rate in m/s or rad/s).
+    CoulombTable(Table),
+    /// Exponential (Benson-Hallquist): `mu = mu_d + (mu_s - mu_d) exp(-c |V|)` (`EXPn`: TBDATA
+    /// mu_s, mu_d, c in s/m or s/rad).
+    #[doc(alias = "EXP1")]
+    Exponential {
+        /// Static coefficient.
+        mu_s: Real,
+        /// Dynamic coefficient.
+        mu_d: Real,
+        /// Decay coefficient (s/m or s/rad).
+        c: Real,
+    },
+}
+
+impl FrictionLaw {
+    /// The coefficient at slip rate `v` (m/s or rad/s).
+    pub fn mu(&self, v: Real) -> Real {
+        match self {
+            FrictionLaw::Coulomb(mu) => *mu,
+            FrictionLaw::CoulombTable(t) => t.eval(v.abs()).0,
+            FrictionLaw::Exponential { mu_s, mu_d, c } => mu_d + (mu_s - mu_d) * (-c * v.abs()).exp(),
+        }
+    }
+}
+
+/// Joint friction: the law, the geometry that turns the joint's reactions into a normal force
+/// (`SECJOINT,FRIC,v1,v2,v3`) and the optional limits (`TB,JOIN` TBOPT SKn, SLn, TMXn, FIn).
+///
+/// The normal force or moment comes from the joint's own reactions in frame I (forces
+/// `lambda1..3`, moments `lambda4..6` on node J), with a missing geometry value dropping its term:
+///
+/// | joint | `v1, v2, v3` | normal force (moment) |
+/// |---|---|---|
+/// | revolute x | R_outer, R_inner, L_eff | `FI + |l1| (Ro + Ri) / 2 + sqrt(l2^2 + l3^2) Ri + 2 Ri sqrt(l5^2 + l6^2) / L` |
+/// | revolute z | same | the same with axial `l3`, radial `l1 l2`, bending `l4 l5` |
+/// | slot | - | `FI + sqrt(l2^2 + l3^2)` |
+/// | translational | L_eff, R_eff | `FI + sqrt(l2^2 + l3^2) + 2 sqrt(l5^2 + l6^2) / L + |l4| / R` |
+/// | spherical | R_eff | `FI + R |l|` (the constraint force at the contact radius) |
+/// | screw (our extension) | r_m (mean thread radius) | the thread's normal force `|l_s| sqrt(1 + p^2 / r_m^2)` from the coupling row's multiplier `l_s`; the friction moment on the screw angle is `mu N (r_m^2 + p^2) / r_m` (square-thread analysis) |
+///
+/// The revolute formulas are printed in the ANSYS theory text; the slot's is described there in
+/// words; the translational factors (2 / L, 1 / R) are our reading by analogy with the revolute
+/// joint; the spherical expression is our choice among the candidates the text allows (it says
+/// only "the constraint force at radius R_eff"); `|l1|` for the axial term is our reading.
+/// Friction is exact stick / slip on the Lagrange backend (a bounded impulse on the free DOF
+/// through the constrained system): the stick stiffness `SKn` and elastic slip `SLn` of
+/// ANSYS's penalty regularisation are accepted and recorded but do not change the result.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[doc(alias = "FRIC")]
+pub struct Friction {
+    /// The law.
+    pub law: FrictionLaw,
+    /// `SECJOINT,FRIC` values (m), `None` where not given.
+    pub geometry: [Option<Real>; 3],
+    /// Interference-fit force or moment added to the normal force (`FIn`, N or N m).
+    #[doc(alias = "FI1")]
+    pub interference: Real,
+    /// Largest friction force or moment (`TMXn`, N or N m; `None`: unbounded).
+    #[doc(alias = "TMX1")]
+    pub max_force: Option<Real>,
+    /// Stick stiffness (`SKn`): recorded, not used (stick is exact).
+    pub stick_stiffness: Option<Real>,
+    /// Elastic slip (`SLn`): recorded, not used.
+    pub elastic_slip: Option<Real>,
+}
+
+impl Friction {
+    /// Coulomb friction with coefficient `mu` and the `SECJOINT,FRIC` geometry.
+    pub fn coulomb(mu: Real, geometry: [Option<Real>; 3]) -> Self {
+        Self {
+            law: FrictionLaw::Coulomb(mu),
+            geometry,
+            interference: 0.0,
+            max_force: None,
+            stick_stiffness: None,
+            elastic_slip: None,
+        }
+    }
+
+    /// The DOFs the friction acts on for a joint kind (`n` = 1: UX, 4: ROTX, 6: ROTZ; the
+    /// spherical joint: all three rotations), or `None` when the kind takes no friction.
+    pub fn dofs(kind: &JointKind) -> Option<&'static [Dof]> {
+        use crate::catalogue::Axis;
+        match kind {
+            JointKind::Revolute { axis: Axis::X } => Some(&[Dof::RotX]),
+            JointKind::Revolute { axis: Axis::Z } | JointKind::Screw { .. } => Some(&[Dof::RotZ]),
+            JointKind::Slot | JointKind::Translational => Some(&[Dof::Ux]),
+            JointKind::Spherical => Some(&[Dof::RotX, Dof::RotY, Dof::RotZ]),
+            JointKind::Universal
+            | JointKind::PointInPlane
+            | JointKind::Cylindrical { .. }
+            | JointKind::Planar { .. }
+            | JointKind::Weld
+            | JointKind::Orient
+            | JointKind::General { .. }
+            | JointKind::Spotweld
+            | JointKind::Genb { .. } => None,
+        }
+    }
+
+    /// The normal force (moment) from the reactions `l` (forces then moments on node J, frame
+    /// I) for a joint kind; see the type's table.
+    pub fn normal(&self, kind: &JointKind, l: &[Real; 6]) -> Real {
+        use crate::catalogue::Axis;
+        let g = |i: usize| self.geometry[i];
+        let hyp = |a: Real, b: Real| (a * a + b * b).sqrt();
+        let fi = self.interference;
+        match kind {
+            JointKind::Revolute { axis } => {
+                let (axial, r1, r2, b1, b2) = match axis {
+                    Axis::X => (l[0], l[1], l[2], l[4], l[5]),
+                    Axis::Z => (l[2], l[0], l[1], l[3], l[4]),
+                };
+                let mut n = fi;
+                if let (Some(ro), Some(ri)) = (g(0), g(1)) {
+                    n += axial.abs() * 0.5 * (ro + ri);
+                } else if let Some(r) = g(0).or(g(1)) {
+                    n += axial.abs() * r;
+                }
+                if let Some(ri) = g(1) {
+                    n += hyp(r1, r2) * ri;
+                    if let Some(len) = g(2).filter(|x| *x > 0.0) {
+                        n += 2.0 * ri * hyp(b1, b2) / len;
+                    }
+                }
+                n
+            }
+            JointKind::Slot => fi + hyp(l[1], l[2]),
+            JointKind::Translational => {
+                let mut n = fi + hyp(l[1], l[2]);
+                if let Some(len) = g(0).filter(|x| *x > 0.0) {
+                    n += 2.0 * hyp(l[4], l[5]) / len;
+                }
+                if let Some(r) = g(1).filter(|x| *x > 0.0) {
+                    n += l[3].abs() / r;
+                }
+                n
+            }
+            JointKind::Spherical => fi + g(0).unwrap_or(0.0) * (l[0] * l[0] + l[1] * l[1] + l[2] * l[2]).sqrt(),
+            // The screw's normal force comes from its coupling row (see the solver).
+            _ => fi,
+        }
+    }
+}
+
 /// The behaviour attached to a joint's free DOFs (plain data; see the module table).
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Behaviour {
@@ -211,6 +364,9 @@ pub struct Behaviour {
     /// `None`: the measure at time 0.
     #[doc(alias = "SECDATA")]
     pub reference: [Option<Real>; 6],
+    /// Joint friction (`TB,JOIN` MUSn / EXPn with `SECJOINT,FRIC`).
+    #[serde(default)]
+    pub friction: Option<Friction>,
 }
 
 impl Behaviour {
@@ -219,6 +375,7 @@ impl Behaviour {
         self.stops.is_empty()
             && self.locks.is_empty()
             && !self.has_forces()
+            && self.friction.is_none()
             && self.reference.iter().all(Option::is_none)
     }
 
@@ -319,6 +476,48 @@ impl Behaviour {
                         ),
                     ));
                 }
+            }
+        }
+        if let Some(f) = &self.friction {
+            if Friction::dofs(kind).is_none() {
+                return Err((
+                    "FRIC",
+                    format!(
+                        "a {} joint takes no friction (revolute, slot, translational, spherical \
+                         and screw do)",
+                        kind.name()
+                    ),
+                ));
+            }
+            let bad = match &f.law {
+                FrictionLaw::Coulomb(mu) => !(mu.is_finite() && *mu >= 0.0),
+                FrictionLaw::CoulombTable(t) => {
+                    t.validate().map_err(|e| ("MUS", format!("MUS table: {e}")))?;
+                    t.points.iter().any(|p| p.1 < 0.0)
+                }
+                FrictionLaw::Exponential { mu_s, mu_d, c } => {
+                    !(mu_s.is_finite() && mu_d.is_finite() && c.is_finite())
+                        || *mu_s < 0.0
+                        || *mu_d < 0.0
+                        || *c < 0.0
+                }
+            };
+            if bad {
+                return Err(("MUS", "friction coefficients must be finite and >= 0".into()));
+            }
+            if f.geometry.iter().flatten().any(|x| !(x.is_finite() && *x >= 0.0))
+                || !f.interference.is_finite()
+                || f.max_force.is_some_and(|x| !(x >= 0.0))
+            {
+                return Err(("FRIC", "geometry, FI and TMX must be finite and >= 0".into()));
+            }
+            if matches!(kind, JointKind::Screw { .. }) && f.geometry[0].is_none_or(|r| r <= 0.0) {
+                return Err((
+                    "FRIC",
+                    "a screw with friction needs the mean thread radius (SECJOINT,FRIC first \
+                     value)"
+                        .into(),
+                ));
             }
         }
         if let Some((k, v)) = self

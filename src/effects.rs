@@ -45,6 +45,23 @@ pub(crate) struct EffectState {
     pub(crate) on_body2: (Vector, Vector),
     /// Spring energy at the last evaluation (J).
     pub(crate) spring_energy: Real,
+    /// Friction state of the last substep.
+    pub(crate) friction: Option<FrictionState>,
+}
+
+/// The friction state of a joint in the last substep.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct FrictionState {
+    /// Sliding (the bound was reached) rather than sticking.
+    pub slipping: bool,
+    /// Slip rate after the friction impulse (m/s or rad/s).
+    pub slip_rate: Real,
+    /// Friction force or moment magnitude (N or N m).
+    pub force: Real,
+    /// Normal force or moment from the reactions (N or N m).
+    pub normal: Real,
+    /// The coefficient used.
+    pub mu: Real,
 }
 
 /// Energy that left or entered the system other than through kinetic, gravitational and spring
@@ -376,6 +393,65 @@ impl Mpc184World {
         out
     }
 
+    /// The response of the constrained system to a unit impulse along each row: the body
+    /// velocity changes and the joint rows' multiplier changes (`-impulse`), from the current
+    /// factorisation with two steps of iterative refinement towards the unregularised hard
+    /// rows (the relative regularisation otherwise lets a response to a large torque on a small
+    /// inertia leak through the joint's own rows: measured 3e-4 of the impact energy lost per
+    /// bounce with a bob of inertia 1e-4 kg m^2 on 1 m; the second pass takes a 1e-6 kg m^2 bob
+    /// from 4e-5 to round-off). Empty when there is no factorisation.
+    fn effects_responses(
+        &self,
+        rows: &[(RowEval, [Option<usize>; 2])],
+    ) -> Result<Vec<(Vec<[Real; 6]>, Vec<Real>)>, Error> {
+        let ls = &self.lagrange;
+        let nb = ls.bodies.len();
+        let time = self.time;
+        let Some(kkt) = ls.kkt.as_ref() else {
+            return Ok(Vec::new());
+        };
+        let fail = |e| Error::Diverged {
+            time,
+            reason: format!("joint stop/friction solve failed: {e}"),
+        };
+        let mut out = Vec::with_capacity(rows.len());
+        for (row, slots) in rows {
+            let mut rb = vec![[0.0; 6]; nb];
+            let mut rj = vec![0.0; kkt.num_rows()];
+            for (slot, jb) in [(slots[0], row.j1), (slots[1], row.j2)] {
+                if let Some(i) = slot {
+                    for c in 0..3 {
+                        rb[i][c] += jb[0][c];
+                        rb[i][3 + c] += jb[1][c];
+                    }
+                }
+            }
+            kkt.solve(&mut rb, &mut rj).map_err(fail)?;
+            let mut last = rj.clone();
+            for _ in 0..2 {
+                let mut rb2 = vec![[0.0; 6]; nb];
+                let mut rj2: Vec<Real> = last
+                    .iter()
+                    .zip(&ls.compliance)
+                    .zip(&ls.kpen)
+                    .map(|((m, c), k)| if *k > 0.0 { 0.0 } else { -c * m })
+                    .collect();
+                kkt.solve(&mut rb2, &mut rj2).map_err(fail)?;
+                for (x, y) in rb.iter_mut().zip(&rb2) {
+                    for c in 0..6 {
+                        x[c] += y[c];
+                    }
+                }
+                for (x, y) in rj.iter_mut().zip(&rj2) {
+                    *x += y;
+                }
+                last = rj2;
+            }
+            out.push((rb, rj));
+        }
+        Ok(out)
+    }
+
     /// Solves for non-negative impulses on the active limits through the constrained system
     /// (current factorisation) and applies them: to the velocities in `rhs_b` (velocity level)
     /// or as displacements of the body states (position level, fed into the velocity as
@@ -389,55 +465,11 @@ impl Mpc184World {
         let n = active.len();
         let nb = self.lagrange.bodies.len();
         let time = self.time;
-        let mut responses: Vec<(Vec<[Real; 6]>, Vec<Real>)> = Vec::with_capacity(n);
-        {
-            let ls = &self.lagrange;
-            let Some(kkt) = ls.kkt.as_ref() else {
-                return Ok(vec![0.0; n]);
-            };
-            for a in active {
-                let mut rb = vec![[0.0; 6]; nb];
-                let mut rj = vec![0.0; kkt.num_rows()];
-                for (slot, jb) in [(a.slots[0], a.row.j1), (a.slots[1], a.row.j2)] {
-                    if let Some(i) = slot {
-                        for c in 0..3 {
-                            rb[i][c] += jb[0][c];
-                            rb[i][3 + c] += jb[1][c];
-                        }
-                    }
-                }
-                let fail = |e| Error::Diverged {
-                    time,
-                    reason: format!("joint stop solve failed: {e}"),
-                };
-                kkt.solve(&mut rb, &mut rj).map_err(fail)?;
-                // One step of iterative refinement towards the unregularised hard rows: the
-                // relative regularisation lets a response to a large torque on a small
-                // inertia leak through the joint's own rows (measured: 3e-4 of the impact
-                // energy lost per bounce with a bob of inertia 1e-4 kg m^2 on 1 m).
-                // Two passes: the second takes the 1e-6 kg m^2 bob from 4e-5 to round-off.
-                let mut last = rj.clone();
-                for _ in 0..2 {
-                    let mut rb2 = vec![[0.0; 6]; nb];
-                    let mut rj2: Vec<Real> = last
-                        .iter()
-                        .zip(&ls.compliance)
-                        .zip(&ls.kpen)
-                        .map(|((m, c), k)| if *k > 0.0 { 0.0 } else { -c * m })
-                        .collect();
-                    kkt.solve(&mut rb2, &mut rj2).map_err(fail)?;
-                    for (x, y) in rb.iter_mut().zip(&rb2) {
-                        for c in 0..6 {
-                            x[c] += y[c];
-                        }
-                    }
-                    for (x, y) in rj.iter_mut().zip(&rj2) {
-                        *x += y;
-                    }
-                    last = rj2;
-                }
-                responses.push((rb, rj));
-            }
+        let rows: Vec<(RowEval, [Option<usize>; 2])> =
+            active.iter().map(|a| (a.row, a.slots)).collect();
+        let responses = self.effects_responses(&rows)?;
+        if responses.len() != n {
+            return Ok(vec![0.0; n]);
         }
         let dot = |a: &Active, dv: &[[Real; 6]]| -> Real {
             let mut s = 0.0;
@@ -603,6 +635,184 @@ impl Mpc184World {
             return Ok(());
         }
         self.effects_resolve(&active, h, false)?;
+        Ok(())
+    }
+
+    /// The reactions of joint `j` in this substep so far (forces then moments on node J, frame
+    /// I; N and N m) from its rows' impulses, and the screw coupling row's multiplier.
+    fn effects_reactions(&self, j: usize, f: &FramePair, h: Real) -> ([Real; 6], Real) {
+        let ls = &self.lagrange;
+        let Some(e) = &self.joints[j] else {
+            return ([0.0; 6], 0.0);
+        };
+        let Some(range) = ls.rows_of(j) else {
+            return ([0.0; 6], 0.0);
+        };
+        let (mut force, mut torque, mut screw) = (Vector::ZERO, Vector::ZERO, 0.0);
+        for (row, r) in e.rows.iter().zip(range) {
+            let jr = &ls.jac[crate::solver::kkt::JAC_ROW_STRIDE * r..];
+            let m = ls.impulse[r] / h;
+            force += Vector::new(jr[6], jr[7], jr[8]) * m;
+            torque += Vector::new(jr[9], jr[10], jr[11]) * m;
+            if matches!(row, RowKind::Screw { .. }) {
+                screw = m;
+            }
+        }
+        let moment = torque - (f.p2 - f.c2).cross(force);
+        let (fl, ml) = (f.r1.transpose() * force, f.r1.transpose() * moment);
+        ([fl.x, fl.y, fl.z, ml.x, ml.y, ml.z], screw)
+    }
+
+    /// The friction stage, after the limits (`v'` in `rhs_b`): per joint with friction, the
+    /// bounded impulse on its free DOF(s) that sticks it if `|p| <= mu(V) N h` allows, else
+    /// slides at the bound; `N` from the joint's reactions of this substep, recomputed after
+    /// each of three passes (the friction impulse changes the reactions through the constrained
+    /// system: the screw jack's normal force depends on the friction itself).
+    pub(crate) fn effects_friction(&mut self, h: Real) -> Result<(), Error> {
+        const PASSES: usize = 3;
+        for j in 0..self.joints.len() {
+            let Some(e) = &self.joints[j] else { continue };
+            let Some(fr) = e.joint.behaviour.friction.clone() else {
+                continue;
+            };
+            let kind = e.joint.kind;
+            let Some(dofs) = crate::behaviour::Friction::dofs(&kind) else {
+                continue;
+            };
+            let Some((f, slots, _)) = self.effect_frames(j) else {
+                continue;
+            };
+            let (_, rows) = dof_rows(&f, [e.output.measure[3], e.output.measure[5]]);
+            let frows: Vec<(RowEval, [Option<usize>; 2])> =
+                dofs.iter().map(|d| (rows[d.index()], slots)).collect();
+            let responses = self.effects_responses(&frows)?;
+            let n = frows.len();
+            if responses.len() != n {
+                continue;
+            }
+            let nb = self.lagrange.bodies.len();
+            let rate_of = |ls: &crate::lagrange::LagrangeState, row: &RowEval| -> Real {
+                let mut g = 0.0;
+                for (slot, jb) in [(slots[0], row.j1), (slots[1], row.j2)] {
+                    if let Some(i) = slot {
+                        let x = ls.rhs_b[i];
+                        g += jb[0].dot(Vector::new(x[0], x[1], x[2]))
+                            + jb[1].dot(Vector::new(x[3], x[4], x[5]));
+                    }
+                }
+                g
+            };
+            let w: Vec<Vec<Real>> = frows
+                .iter()
+                .map(|(row, _)| {
+                    responses
+                        .iter()
+                        .map(|(dv, _)| {
+                            let mut s = 0.0;
+                            for (slot, jb) in [(slots[0], row.j1), (slots[1], row.j2)] {
+                                if let Some(i) = slot {
+                                    for c in 0..3 {
+                                        s += jb[0][c] * dv[i][c] + jb[1][c] * dv[i][3 + c];
+                                    }
+                                }
+                            }
+                            s
+                        })
+                        .collect()
+                })
+                .collect();
+            let g0: Vec<Real> = frows.iter().map(|(r, _)| rate_of(&self.lagrange, r)).collect();
+            let speed = g0.iter().map(|g| g * g).sum::<Real>().sqrt();
+            let mu = fr.law.mu(speed);
+            let mut total = vec![0.0; n];
+            let mut stick = true;
+            let mut normal = 0.0;
+            for _ in 0..PASSES {
+                let (l, screw) = self.effects_reactions(j, &f, h);
+                normal = match kind {
+                    crate::catalogue::JointKind::Screw { pitch } => {
+                        let r = fr.geometry[0].unwrap_or(1.0);
+                        fr.interference
+                            + screw.abs() * (1.0 + pitch * pitch / (r * r)).sqrt()
+                                * (r * r + pitch * pitch).sqrt()
+                    }
+                    _ => fr.normal(&kind, &l),
+                };
+                let mut bound = mu * normal;
+                if let Some(cap) = fr.max_force {
+                    bound = bound.min(cap);
+                }
+                let bound = bound * h;
+                // Impulse that sticks: total - W^-1 g (Gauss-Seidel on the small system).
+                let g: Vec<Real> = frows.iter().map(|(r, _)| rate_of(&self.lagrange, r)).collect();
+                let mut target = total.clone();
+                let mut delta = vec![0.0; n];
+                for _ in 0..if n == 1 { 1 } else { 30 } {
+                    for a in 0..n {
+                        if w[a][a] <= 0.0 {
+                            continue;
+                        }
+                        let mut r = -g[a];
+                        for b in 0..n {
+                            if b != a {
+                                r -= w[a][b] * delta[b];
+                            }
+                        }
+                        delta[a] = r / w[a][a];
+                    }
+                }
+                for a in 0..n {
+                    target[a] += delta[a];
+                }
+                let size = target.iter().map(|x| x * x).sum::<Real>().sqrt();
+                stick = size <= bound;
+                if !stick && size > 0.0 {
+                    for x in target.iter_mut() {
+                        *x *= bound / size;
+                    }
+                }
+                let ls = &mut self.lagrange;
+                for a in 0..n {
+                    let d = target[a] - total[a];
+                    if d == 0.0 {
+                        continue;
+                    }
+                    let (dv, dmu) = &responses[a];
+                    for i in 0..nb {
+                        for c in 0..6 {
+                            ls.rhs_b[i][c] += d * dv[i][c];
+                        }
+                    }
+                    for (r, m) in dmu.iter().enumerate() {
+                        ls.impulse[r] -= d * m;
+                    }
+                }
+                total = target;
+            }
+            let g1: Vec<Real> = frows.iter().map(|(r, _)| rate_of(&self.lagrange, r)).collect();
+            let mut lost = 0.0;
+            for a in 0..n {
+                lost -= total[a] * 0.5 * (g0[a] + g1[a]);
+            }
+            self.ledger.dissipated += lost;
+            let (mut f2, mut t2) = (Vector::ZERO, Vector::ZERO);
+            for (a, (row, _)) in frows.iter().enumerate() {
+                f2 += row.j2[0] * (total[a] / h);
+                t2 += row.j2[1] * (total[a] / h);
+            }
+            let slip_rate = g1.iter().map(|g| g * g).sum::<Real>().sqrt();
+            if let Some(e) = &mut self.joints[j] {
+                e.effects.on_body2.0 += f2;
+                e.effects.on_body2.1 += t2;
+                e.effects.friction = Some(FrictionState {
+                    slipping: !stick,
+                    slip_rate,
+                    force: total.iter().map(|x| x * x).sum::<Real>().sqrt() / h,
+                    normal,
+                    mu,
+                });
+            }
+        }
         Ok(())
     }
 

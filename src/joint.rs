@@ -2,7 +2,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::behaviour::{Behaviour, Limit, Sym6, Table};
+use crate::behaviour::{Behaviour, Friction, Limit, Sym6, Table};
 use crate::catalogue::{Axis, JointKind};
 use crate::dof::Dof;
 use crate::math::{Real, Rotation, Vector};
@@ -147,6 +147,14 @@ impl Mpc184Joint {
     #[must_use]
     pub fn with_damping_table(mut self, dof: Dof, table: Table) -> Self {
         self.behaviour.damping_tables[dof.index()] = Some(table);
+        self
+    }
+
+    /// Sets the joint friction (`TB,JOIN` MUSn / EXPn, `SECJOINT,FRIC`).
+    #[doc(alias = "FRIC")]
+    #[must_use]
+    pub fn with_friction(mut self, friction: Friction) -> Self {
+        self.behaviour.friction = Some(friction);
         self
     }
 

@@ -119,7 +119,7 @@ pub(crate) struct LagrangeState {
     pub(crate) kkt: Option<KktSolver>,
     pub(crate) st: Vec<BodyState>,
     mass: Vec<[Real; 36]>,
-    jac: Vec<Real>,
+    pub(crate) jac: Vec<Real>,
     pub(crate) compliance: Vec<Real>,
     /// Per row: constraint value, kinematic-body velocity term, whether it is a penalty row.
     value: Vec<Real>,
@@ -590,6 +590,7 @@ impl Mpc184World {
         }
         if effects {
             self.effects_limits_velocity(h)?;
+            self.effects_friction(h)?;
         }
         // Hand v' to Rapier: gravity and user forces held back for this substep.
         for i in 0..nb {

@@ -25,7 +25,7 @@ pub use world::Mpc184World;
 
 /// The entry types.
 pub mod prelude {
-    pub use crate::behaviour::{Behaviour, Limit, Sym6, Table};
+    pub use crate::behaviour::{Behaviour, Friction, FrictionLaw, Limit, Sym6, Table};
     pub use crate::catalogue::{Axis, JointKind};
     pub use crate::dof::{Dof, DofMask};
     pub use crate::effects::EnergyReport;

@@ -258,6 +258,9 @@ pub struct JointOutput {
     /// Generalised force of the springs, dampers and applied loads on each DOF in the last
     /// substep (N or N m, on node J along the DOF; UX..ROTZ).
     pub element_force: [Real; 6],
+    /// Joint friction in the last substep (`None` without friction): stick/slip, slip rate,
+    /// friction and normal force.
+    pub friction: Option<crate::effects::FrictionState>,
 }
 
 impl JointOutput {
@@ -1127,6 +1130,7 @@ impl Mpc184World {
         e.output.stops = e.effects.at_stop.iter().filter(|x| **x).count() as u8;
         e.output.locks = e.effects.locked.iter().filter(|x| x.is_some()).count() as u8;
         e.output.element_force = e.effects.force;
+        e.output.friction = e.effects.friction;
         e.output.spring_energy = if b.has_forces() {
             let x: [Real; 6] =
                 core::array::from_fn(|k| m[k] - b.reference[k].unwrap_or(e.initial[k]));
