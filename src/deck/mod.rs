@@ -51,11 +51,15 @@
 //! assert_eq!(deck.role_of(e), Some(ElementRole::Joint));
 //! ```
 
+mod build;
 mod error;
 mod expr;
 mod model;
 mod parse;
 
+pub use build::{
+    BuildOptions, DeckBody, DeckJoint, DeckModel, FrictionData, POINT_MASS_INERTIA, StepPlan,
+};
 pub use error::{DeckError, DeckErrorKind};
 pub use expr::{AngleUnit, ExprError, MAX_DEPTH, evaluate};
 pub use model::{
