@@ -399,7 +399,7 @@ fn run(deck: &Deck, args: &RunArgs, out: &Path) -> Result<Summary, Failure> {
                 });
             }
             done += 1;
-            if done % every == 0 || done == total_steps {
+            if done.is_multiple_of(every) || done == total_steps {
                 w.row(&model, total0)?;
             }
             if let Some(c) = crank
@@ -410,7 +410,7 @@ fn run(deck: &Deck, args: &RunArgs, out: &Path) -> Result<Summary, Failure> {
             if let Some((p, _)) = model.node_ids().last().map(|n| model.node_state(n)) {
                 summary.max_slider_x = summary.max_slider_x.max(p.x as f64);
             }
-            if progress && (done % 50 == 0 || done == total_steps) {
+            if progress && (done.is_multiple_of(50) || done == total_steps) {
                 print!(
                     "\r  step {done}/{total_steps}  t = {:.4} s",
                     model.world.time()

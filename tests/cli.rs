@@ -1,7 +1,7 @@
 //! The `mpc184` binary end to end: `run` on an asset deck writes the three CSV files with their
 //! exact headers and one row per output step (plus t = 0) per joint or node; a malformed deck
 //! exits 2 with `file:line: COMMAND:` on stderr; an unsupported element exits 2 with its hint;
-//! `check` prints the model. No physics tolerances here (tests/deck_run.rs has them).
+//! `check` prints the model. No physics tolerances here (`tests/deck_run.rs` has them).
 #![cfg(feature = "cli")]
 
 use std::path::{Path, PathBuf};

@@ -70,7 +70,7 @@ fn pendulum_angle(theta0: f64, w2: f64, t: f64) -> f64 {
     th
 }
 
-/// The A01 pendulum (pendulum_z, pendulum_x, general_rdof): released horizontally, hinge
+/// The A01 pendulum (`pendulum_z`, `pendulum_x`, `general_rdof`): released horizontally, hinge
 /// rotation `rot(out)`. Returns (quarter-period error s, angle error at 2 s rad, energy error
 /// / m g L).
 fn pendulum_deck(name: &str, rot: fn(&JointOutput) -> f64) -> (f64, f64, f64) {
@@ -397,7 +397,7 @@ fn builder_errors_name_the_line_and_command() {
     assert!(e.starts_with("bad.inp:7: E: unsupported:"), "{e}");
     assert!(e.contains("distance") && e.contains("hint"), "{e}");
 
-    let massless = format!("{}", HINGE.replace("TYPE,2 $ REAL,1 $ E,1\n", ""));
+    let massless = HINGE.replace("TYPE,2 $ REAL,1 $ E,1\n", "");
     let e = build_err(&massless);
     assert!(e.starts_with("bad.inp:8: E: "), "{e}");
     assert!(e.contains("node 1 carries no mass"), "{e}");

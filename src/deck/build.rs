@@ -85,7 +85,7 @@ pub struct DeckBody {
 /// Friction data of a joint, parsed and kept for the friction issue (not applied yet).
 #[derive(Clone, Debug, PartialEq)]
 pub struct FrictionData {
-    /// The friction `TB,JOIN` tables of the joint's material (MUSn, EXPn, SLn, SKn, TMXn, FIn).
+    /// The friction `TB,JOIN` tables of the joint's material (`MUSn`, `EXPn`, `SLn`, `SKn`, `TMXn`, `FIn`).
     pub tables: Vec<JoinTable>,
     /// `SECJOINT,FRIC` values (m).
     pub geometry: [Option<f64>; 3],
@@ -269,8 +269,9 @@ fn solve6(mut a: [[f64; 6]; 6], mut b: [f64; 6]) -> [f64; 6] {
         }
         for r in c + 1..6 {
             let f = a[r][c] / d;
-            for k in c..6 {
-                a[r][k] -= f * a[c][k];
+            let pivot_row = a[c];
+            for (x, p) in a[r].iter_mut().zip(pivot_row).skip(c) {
+                *x -= f * p;
             }
             b[r] -= f * b[c];
         }
