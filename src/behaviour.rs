@@ -75,6 +75,10 @@ impl Sym6 {
     }
 
     /// `D x` restricted to the DOFs in `free` (the others neither act nor are acted on).
+    #[allow(
+        clippy::needless_range_loop,
+        reason = "i and j index the matrix, x, y and the mask"
+    )]
     pub fn apply(&self, x: &[Real; 6], free: crate::dof::DofMask) -> [Real; 6] {
         let mut y = [0.0; 6];
         for i in 0..6 {

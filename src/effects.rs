@@ -14,8 +14,9 @@
 //!   - Penalty method or a screw joint: plain inequality: the DOF lands on the limit
 //!     (`g+ = -gap / h`) and stays while pushed; the kinetic energy lost is dissipated.
 //!   - Locks land the same way and are then held by a permanent row from the next step on.
-//!   After the position projection a limit still violated by more than the projection
-//!   tolerance is projected back the same way (position level, start-of-substep directions).
+//!
+//! After the position projection a limit still violated by more than the projection
+//! tolerance is projected back the same way (position level, start-of-substep directions).
 
 use serde::{Deserialize, Serialize};
 
@@ -111,6 +112,10 @@ struct Active {
 impl Mpc184World {
     /// The ANSYS frame pair of joint `j` at the solver's current body states, the dynamic-body
     /// slots of its two sides, and each side's velocity (linear at the centre of mass, angular).
+    #[allow(
+        clippy::type_complexity,
+        reason = "a private helper returning three plain parts"
+    )]
     fn effect_frames(&self, j: usize) -> Option<(FramePair, [Option<usize>; 2], [[Vector; 2]; 2])> {
         let e = self.joints.get(j)?.as_ref()?;
         let ls = &self.lagrange;
@@ -513,6 +518,7 @@ impl Mpc184World {
             if p[a] == 0.0 {
                 continue;
             }
+            #[allow(clippy::needless_range_loop, reason = "body slots index two arrays")]
             for i in 0..nb {
                 if velocity_level {
                     for c in 0..6 {

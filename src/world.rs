@@ -376,6 +376,13 @@ impl Mpc184World {
         &self.settings
     }
 
+    /// Changes the time step of the following `step()` calls (a new `DELTIM` or `NSUBST` in a
+    /// later load step); the substep count stays.
+    pub fn set_dt(&mut self, dt: Real) {
+        self.settings.dt = dt;
+        self.lagrange.dirty = true;
+    }
+
     /// Simulated time (s).
     pub fn time(&self) -> Real {
         self.time
@@ -1052,9 +1059,6 @@ impl Mpc184World {
                     tau += ev.j2[1] * m;
                 }
             }
-            // Springs, dampers, loads and limit impulses of the last substep.
-            f += e.effects.on_body2.0;
-            tau += e.effects.on_body2.1;
             // Springs, dampers, loads and limit impulses of the last substep.
             f += e.effects.on_body2.0;
             tau += e.effects.on_body2.1;

@@ -1,6 +1,6 @@
 //! The APDL deck reader: a subset of Mechanical APDL input for rigid multibody models with
-//! MPC184 joints, read into plain data ([`Deck`]). No Rapier types here: turning a [`Deck`] into
-//! a simulation is the builder's job.
+//! MPC184 joints, read into plain data ([`Deck`]; the parser has no Rapier types), and the builder
+//! (`DeckModel::build`, `build.rs`) that turns a [`Deck`] into a runnable `Mpc184World`.
 //!
 //! # Syntax
 //! - Commands are case-insensitive, fields are separated by commas and blank fields are "not
@@ -51,11 +51,15 @@
 //! assert_eq!(deck.role_of(e), Some(ElementRole::Joint));
 //! ```
 
+mod build;
 mod error;
 mod expr;
 mod model;
 mod parse;
 
+pub use build::{
+    BuildOptions, DeckBody, DeckJoint, DeckModel, FrictionData, POINT_MASS_INERTIA, StepPlan,
+};
 pub use error::{DeckError, DeckErrorKind};
 pub use expr::{AngleUnit, ExprError, MAX_DEPTH, evaluate};
 pub use model::{

@@ -1,0 +1,124 @@
+//! The `mpc184` binary end to end: `run` on an asset deck writes the three CSV files with their
+//! exact headers and one row per output step (plus t = 0) per joint or node; a malformed deck
+//! exits 2 with `file:line: COMMAND:` on stderr; an unsupported element exits 2 with its hint;
+//! `check` prints the model. No physics tolerances here (`tests/deck_run.rs` has them).
+#![cfg(feature = "cli")]
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_mpc184"))
+}
+
+fn temp_dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("mpc184-cli-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn asset(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("assets/decks")
+        .join(name)
+}
+
+#[test]
+fn run_writes_the_three_csv_files_with_exact_headers() {
+    let dir = temp_dir("run");
+    let out = bin()
+        .args(["run"])
+        .arg(asset("stops_locks.inp"))
+        .arg("--out")
+        .arg(&dir)
+        .args(["--every", "10", "--quiet"])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let read = |f: &str| std::fs::read_to_string(dir.join(f)).unwrap();
+    let (joints, nodes, energy) = (read("joints.csv"), read("nodes.csv"), read("energy.csv"));
+    assert_eq!(
+        joints.lines().next().unwrap(),
+        "time,elem,ux,uy,uz,rotx,roty,rotz,velx,vely,velz,omgx,omgy,omgz,fx,fy,fz,mx,my,mz,stop,lock,slip"
+    );
+    assert_eq!(nodes.lines().next().unwrap(), "time,node,x,y,z,vx,vy,vz");
+    assert_eq!(
+        energy.lines().next().unwrap(),
+        "time,kinetic,potential,spring,dissipated,work,balance"
+    );
+    // 240 steps thinned by 10, plus t = 0: 25 output times; two joints, two nodes.
+    assert_eq!(energy.lines().count(), 1 + 25);
+    assert_eq!(joints.lines().count(), 1 + 2 * 25);
+    assert_eq!(nodes.lines().count(), 1 + 2 * 25);
+    let last = joints.lines().last().unwrap();
+    let fields: Vec<&str> = last.split(',').collect();
+    assert_eq!(fields.len(), 23);
+    assert_eq!(fields[0].parse::<f64>().unwrap().round(), 1.0);
+    assert_eq!(fields[22], "", "slip is empty without friction");
+    assert_eq!(fields[21], "1", "slot 2 locked");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn malformed_deck_exits_2_with_file_line_command() {
+    let dir = temp_dir("malformed");
+    let deck = dir.join("bad.inp");
+    std::fs::write(&deck, "/PREP7\nET,1,MPC184,6\nN,1,1,2+*3\n").unwrap();
+    let out = bin()
+        .arg("run")
+        .arg(&deck)
+        .arg("--out")
+        .arg(&dir)
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("bad.inp:3: N: "), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn unsupported_element_exits_2_with_its_hint() {
+    let dir = temp_dir("unsupported");
+    let deck = dir.join("beam.inp");
+    std::fs::write(&deck, "/PREP7\nET,1,BEAM188\n").unwrap();
+    let out = bin().arg("check").arg(&deck).output().unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("beam.inp:2: ET: unsupported"), "{err}");
+    assert!(err.contains("hint: rigid multibody only"), "{err}");
+    // A rigid link is caught by the builder, with its line and hint.
+    std::fs::write(
+        &deck,
+        "/PREP7\nET,1,MPC184,0\nET,2,MASS21,,,2\nR,1,1\nN,1\nN,2,1\nE,1,2\nTYPE,2\nE,1\nE,2\n",
+    )
+    .unwrap();
+    let out = bin().arg("check").arg(&deck).output().unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("beam.inp:7: E: unsupported"), "{err}");
+    assert!(err.contains("hint:"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn check_prints_bodies_joints_and_dof_count() {
+    let out = bin()
+        .arg("check")
+        .arg(asset("bricard.inp"))
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains("bodies:") && text.contains("joints:"),
+        "{text}"
+    );
+    assert!(text.contains("DOF count"), "{text}");
+    assert_eq!(text.matches("revolute").count(), 6, "{text}");
+}

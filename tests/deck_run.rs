@@ -1,0 +1,413 @@
+//! Every asset deck (`assets/decks/*.inp`) built by `DeckModel::build` and run through all its
+//! load steps on the Lagrange backend (4 substeps per DELTIM), against the analytic result its
+//! header states; plus small inline decks for DJ, FJ, F and the builder's errors.
+//!
+//! Tolerances, and why:
+//! - The Lagrange backend integrates with constrained symplectic Euler at `h = DELTIM / 4`
+//!   (1/960 s here). Under a constant force it gives `x = a t (t + h) / 2`: a relative offset
+//!   of `h / t` (1e-3 after 1 s), so free-fall-like checks allow 2e-3 relative (or compare with
+//!   that discrete solution). Its energy error is a bounded first-order oscillation of order
+//!   `g h` per unit mass and length (the README's 5.7e-3 m g L at h = 1/240 s, so ~1.5e-3 m g L
+//!   here), not a drift: energy checks allow 5e-3 m g L.
+//! - Phases (pendulum periods, precession) are second order in `h` once the scheme's constant
+//!   lead of `h / 2` is taken out (the same `a t (t + h) / 2`): 2e-5 s on a quarter period.
+//! - Point-mass bodies get 1e-6 m r^2 of rotary inertia (see `deck::build`); the exact
+//!   pendulum period is computed with it (a 5e-7 relative change).
+//! - Constraints hold to the projection tolerance (1e-10 m): kinematic relations (screw pitch,
+//!   slider-crank loop) are checked to 1e-8.
+#![cfg(feature = "f64")]
+
+use std::path::PathBuf;
+
+use rapier3d_mpc184::deck::{BuildOptions, DeckModel, parse_file, parse_str};
+use rapier3d_mpc184::metrics::pendulum_period;
+use rapier3d_mpc184::prelude::*;
+
+const G: f64 = 9.81;
+
+fn asset(name: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("assets/decks")
+        .join(name)
+}
+
+fn build(name: &str) -> DeckModel {
+    let deck = parse_file(&asset(name)).unwrap_or_else(|e| panic!("{e}"));
+    DeckModel::build(&deck, BuildOptions::default()).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// Runs every load step, calling `f` at t = 0 and after every step.
+fn run(model: &mut DeckModel, mut f: impl FnMut(&DeckModel)) {
+    f(model);
+    for k in 0..model.steps.len() {
+        model.begin_load_step(k).unwrap_or_else(|e| panic!("{e}"));
+        for _ in 0..model.steps[k].steps {
+            model.step().unwrap_or_else(|e| panic!("{e}"));
+            f(model);
+        }
+    }
+}
+
+fn out(model: &DeckModel, k: usize) -> JointOutput {
+    *model.world.output(model.joints[k].id).unwrap()
+}
+
+/// Exact pendulum angle from the downward vertical at time t (RK4 on theta'' = -w^2 sin theta,
+/// step 1e-5 s: error ~1e-15).
+fn pendulum_angle(theta0: f64, w2: f64, t: f64) -> f64 {
+    let (mut th, mut om) = (theta0, 0.0);
+    let n = (t / 1e-5).round() as usize;
+    let h = t / n as f64;
+    let acc = |th: f64| -w2 * th.sin();
+    for _ in 0..n {
+        let (k1t, k1o) = (om, acc(th));
+        let (k2t, k2o) = (om + 0.5 * h * k1o, acc(th + 0.5 * h * k1t));
+        let (k3t, k3o) = (om + 0.5 * h * k2o, acc(th + 0.5 * h * k2t));
+        let (k4t, k4o) = (om + h * k3o, acc(th + h * k3t));
+        th += h / 6.0 * (k1t + 2.0 * k2t + 2.0 * k3t + k4t);
+        om += h / 6.0 * (k1o + 2.0 * k2o + 2.0 * k3o + k4o);
+    }
+    th
+}
+
+/// The A01 pendulum (`pendulum_z`, `pendulum_x`, `general_rdof`): released horizontally, hinge
+/// rotation `rot(out)`. Returns (quarter-period error s, angle error at 2 s rad, energy error
+/// / m g L).
+fn pendulum_deck(name: &str, rot: fn(&JointOutput) -> f64) -> (f64, f64, f64) {
+    let mut m = build(name);
+    let mut samples = Vec::new();
+    let mut worst_energy: f64 = 0.0;
+    run(&mut m, |m| {
+        samples.push((m.world.time(), rot(&out(m, 0))));
+        let e = m.world.energy();
+        worst_energy = worst_energy.max(e.total.abs() / G);
+    });
+    // Released at 90 deg: the angle from the vertical is pi/2 + rot (rot < 0 swinging down).
+    let cross = samples
+        .windows(2)
+        .find(|w| w[0].1 > -core::f64::consts::FRAC_PI_2 && w[1].1 <= -core::f64::consts::FRAC_PI_2)
+        .map(|w| {
+            let f = (w[0].1 + core::f64::consts::FRAC_PI_2) / (w[0].1 - w[1].1);
+            w[0].0 + f * (w[1].0 - w[0].0)
+        })
+        .expect("the bob passes the bottom");
+    // Symplectic Euler runs h/2 ahead of the exact motion (x = a t (t + h) / 2 under a constant
+    // force): compare at t + h/2.
+    let half_h = 0.5 * m.steps[0].dt / 4.0;
+    let pivot = 1.0 + rapier3d_mpc184::deck::POINT_MASS_INERTIA;
+    let quarter = pendulum_period(pivot, 1.0, G, 1.0, core::f64::consts::FRAC_PI_2) / 4.0;
+    let (t_end, rot_end) = *samples.last().unwrap();
+    let exact = pendulum_angle(core::f64::consts::FRAC_PI_2, G / pivot, t_end + half_h);
+    let angle_err = (core::f64::consts::FRAC_PI_2 + rot_end - exact).abs();
+    (cross + half_h - quarter, angle_err, worst_energy)
+}
+
+#[test]
+fn pendulum_z_x_and_general_rdof_match_the_exact_pendulum() {
+    for (name, rot) in [
+        (
+            "pendulum_z.inp",
+            (|o: &JointOutput| o.rotation.z) as fn(&JointOutput) -> f64,
+        ),
+        ("pendulum_x.inp", |o: &JointOutput| o.rotation.x),
+        ("general_rdof.inp", |o: &JointOutput| o.rotation.z),
+    ] {
+        let (dt_quarter, angle_err, energy) = pendulum_deck(name, rot);
+        println!(
+            "{name}: T/4 error {dt_quarter:+.3e} s, angle error at 2 s {angle_err:.3e} rad, energy {energy:.3e} m g L"
+        );
+        assert!(dt_quarter.abs() < 2e-5, "{name}: T/4 off by {dt_quarter} s");
+        assert!(
+            angle_err < 2e-4,
+            "{name}: angle at 2 s off by {angle_err} rad"
+        );
+        assert!(energy < 5e-3, "{name}: energy error {energy} m g L");
+    }
+}
+
+#[test]
+fn double_pendulum_starts_in_free_fall_and_keeps_its_energy() {
+    let mut m = build("double_pendulum.inp");
+    let mut worst: f64 = 0.0;
+    let mut at_005 = None;
+    run(&mut m, |m| {
+        worst = worst.max(m.world.energy().total.abs() / (2.0 * G));
+        let t = m.world.time();
+        if at_005.is_none() && t >= 0.05 - 1e-9 {
+            at_005 = Some((t, m.node_state(2).0.y, m.node_state(4).0.y));
+        }
+    });
+    let (t, y2, y4) = at_005.unwrap();
+    // Both bobs start with acceleration g downward; the discrete free fall is g t (t + h) / 2.
+    let h = m.steps[0].dt / 4.0;
+    let fall = 0.5 * G * t * (t + h);
+    println!(
+        "double pendulum: bob 1 fall {:.4e} / {fall:.4e}, bob 2 {:.4e}; energy {worst:.3e} x 2 m g L",
+        -y2, -y4
+    );
+    assert!((-y2 / fall - 1.0).abs() < 1e-2, "bob 1 fall {}", -y2);
+    assert!((-y4 / fall - 1.0).abs() < 1e-2, "bob 2 fall {}", -y4);
+    assert!(worst < 5e-3, "energy error {worst} x 2 m g L");
+}
+
+#[test]
+fn conical_pendulum_precesses_at_the_steady_rate() {
+    let mut m = build("conical_pendulum.inp");
+    let omega = (G / 30f64.to_radians().cos()).sqrt();
+    let (mut dy, mut dr): (f64, f64) = (0.0, 0.0);
+    let mut angle = Vec::new();
+    run(&mut m, |m| {
+        let (p, _) = m.node_state(2);
+        dy = dy.max((p.y + 30f64.to_radians().cos()).abs());
+        dr = dr.max((p.x.hypot(p.z) - 0.5).abs());
+        angle.push((m.world.time(), p.z.atan2(p.x)));
+    });
+    let mut turned = 0.0;
+    for w in angle.windows(2) {
+        let mut d = w[1].1 - w[0].1;
+        d = (d + core::f64::consts::PI).rem_euclid(2.0 * core::f64::consts::PI)
+            - core::f64::consts::PI;
+        turned += d;
+    }
+    let rate = -turned / angle.last().unwrap().0; // about -Y seen from +Y: z toward x
+    let rate_err = (rate.abs() / omega - 1.0).abs();
+    println!(
+        "conical: rate {rate:.6} vs {omega:.6} ({rate_err:.2e}), height {dy:.2e} m, radius {dr:.2e} m"
+    );
+    assert!(rate_err < 1e-4, "precession rate {rate} vs {omega}");
+    assert!(dy < 1e-3 && dr < 1e-3, "height {dy} radius {dr}");
+}
+
+#[test]
+fn screw_jack_follows_its_pitch_and_the_energy_acceleration() {
+    let mut m = build("screw_jack.inp");
+    let p = 0.005 / (2.0 * core::f64::consts::PI);
+    let mut worst_pitch: f64 = 0.0;
+    run(&mut m, |m| {
+        let o = out(m, 0);
+        worst_pitch = worst_pitch.max((o.displacement.z - p * o.rotation.z).abs());
+    });
+    let o = out(&m, 0);
+    let a = G * 10.0 * p * p / (10.0 * p * p + 0.01);
+    let (t, h) = (m.world.time(), m.steps[0].dt / 4.0);
+    let exact = 0.5 * a * t * t;
+    let discrete = 0.5 * a * t * (t + h);
+    let drop = -o.displacement.z;
+    println!(
+        "screw jack: drop {drop:.6e} m, exact {exact:.6e} ({:+.2e}), discrete {discrete:.6e} ({:+.2e}); |uz - p rotz| {worst_pitch:.1e} m",
+        drop / exact - 1.0,
+        drop / discrete - 1.0
+    );
+    assert!(worst_pitch < 1e-8, "pitch relation off by {worst_pitch} m");
+    assert!((drop / exact - 1.0).abs() < 2e-3, "drop {drop} vs {exact}");
+    assert!(
+        (drop / discrete - 1.0).abs() < 1e-4,
+        "drop {drop} vs {discrete}"
+    );
+}
+
+#[test]
+fn stops_and_locks_deck_respects_its_limits() {
+    let mut m = build("stops_locks.inp");
+    let (mut max1, mut lock_dev): (f64, f64) = (0.0, 0.0);
+    let mut stop_hits = 0;
+    run(&mut m, |m| {
+        let (o1, o2) = (out(m, 0), out(m, 1));
+        max1 = max1.max(o1.displacement.x.abs());
+        stop_hits += o1.stops as usize;
+        if m.world.time() > 0.2 + 1e-9 {
+            lock_dev = lock_dev.max((o2.displacement.x - 0.2).abs());
+            assert_eq!(o2.locks, 1, "slot 2 locked from t = 0.2 s");
+        }
+    });
+    println!(
+        "stops/locks: |x1| max {max1:.12}, lock deviation {lock_dev:.1e} m, stop hits {stop_hits}"
+    );
+    assert!(max1 <= 0.2 + 1e-9, "mass 1 left [-0.2, 0.2]: {max1}");
+    assert!(stop_hits >= 2, "mass 1 should hit both stops");
+    assert!(lock_dev < 1e-9, "mass 2 moved off its lock by {lock_dev}");
+}
+
+#[test]
+fn slider_crank_keeps_its_loop_and_its_stop_and_keeps_the_friction_data() {
+    let mut m = build("slider_crank.inp");
+    let crank = &m.joints[0];
+    let fr = crank.friction.as_ref().expect("MUS6 kept");
+    assert_eq!(fr.tables[0].tbopt, "MUS6");
+    assert_eq!(fr.tables[0].constants[0], Some(0.2));
+    assert_eq!(fr.geometry, [Some(0.01), Some(0.008), Some(0.02)]);
+    assert!(
+        m.notes
+            .iter()
+            .any(|n| n.contains("friction is not applied yet"))
+    );
+    let (rc, lr) = (0.1, 0.3);
+    let (mut loop_err, mut min_rot): (f64, f64) = (0.0, 0.0);
+    let mut hit = false;
+    run(&mut m, |m| {
+        let o = out(m, 0);
+        let th = 60f64.to_radians() + o.rotation.z;
+        let xb = rc * th.cos() + (lr * lr - (rc * th.sin()).powi(2)).sqrt();
+        loop_err = loop_err.max((m.node_state(6).0.x - xb).abs());
+        min_rot = min_rot.min(o.rotation.z);
+        hit |= o.stops > 0;
+    });
+    println!(
+        "slider-crank: loop error {loop_err:.1e} m, lowest crank rotation {:.4} deg",
+        min_rot.to_degrees()
+    );
+    assert!(
+        loop_err < 1e-8,
+        "slider off the exact kinematics by {loop_err} m"
+    );
+    assert!(hit, "the crank reaches its stop");
+    assert!(
+        min_rot >= -30f64.to_radians() - 1e-9,
+        "past the stop: {min_rot}"
+    );
+}
+
+#[test]
+fn bricard_keeps_moving_without_nan() {
+    let mut m = build("bricard.inp");
+    let mut worst: f64 = 0.0;
+    let mut ke_late: f64 = 0.0;
+    let total0 = m.world.energy().total;
+    run(&mut m, |m| {
+        let e = m.world.energy();
+        assert!(e.total.is_finite());
+        worst = worst.max((e.total - total0).abs());
+        if m.world.time() > 5.0 {
+            ke_late = ke_late.max(e.kinetic);
+        }
+    });
+    println!("bricard: energy error {worst:.3e} J (of 29.43 J), late kinetic energy {ke_late:.3}");
+    assert!(worst < 0.03, "energy error {worst} J");
+    assert!(ke_late > 1.0, "still moving after 5 s");
+}
+
+#[test]
+fn friction_incline_runs_frictionless_with_its_friction_kept() {
+    let mut m = build("friction_incline.inp");
+    let fr = m.joints[0].friction.as_ref().expect("MUS1 kept");
+    assert_eq!(fr.tables[0].tbopt, "MUS1");
+    assert_eq!(fr.geometry[..2], [Some(0.1), Some(0.05)]);
+    run(&mut m, |_| {});
+    let (t, h) = (m.world.time(), m.steps[0].dt / 4.0);
+    let a = G * 0.5; // frictionless until the friction model lands
+    let ux = out(&m, 0).displacement.x;
+    assert!((ux / (0.5 * a * t * (t + h)) - 1.0).abs() < 1e-6, "ux {ux}");
+}
+
+const HINGE: &str = "/PREP7
+ET,1,MPC184,6,,,1
+ET,2,MASS21
+R,1,1,1,1,0.5,0.5,0.5
+SECTYPE,1,JOINT,REVO
+SECJOINT,LSYS,0
+N,1
+TYPE,1 $ SECNUM,1 $ E,,1
+TYPE,2 $ REAL,1 $ E,1
+FINISH
+/SOLU
+ANTYPE,TRANS
+";
+
+#[test]
+fn dj_ramped_then_constant_velocity_drives_the_hinge_exactly() {
+    let text = format!(
+        "{HINGE}KBC,0\nTIME,1\nDELTIM,0.01\nDJ,1,ROTZ,0.5\nSOLVE\nKBC,1\nTIME,2\nDJDELE,1,ROTZ\nDJ,1,OMGZ,2\nSOLVE\n"
+    );
+    let deck = parse_str(&text, "dj.inp").unwrap();
+    let mut m = DeckModel::build(&deck, BuildOptions::default()).unwrap();
+    let mut worst: f64 = 0.0;
+    run(&mut m, |m| {
+        let t = m.world.time();
+        let exact = if t <= 1.0 {
+            0.5 * t
+        } else {
+            0.5 + 2.0 * (t - 1.0)
+        };
+        worst = worst.max((out(m, 0).rotation.z - exact).abs());
+    });
+    println!("DJ: largest tracking error {worst:.1e} rad");
+    assert!(worst < 1e-9, "drive tracking error {worst}");
+}
+
+#[test]
+fn fj_moment_and_nodal_force_accelerate_as_newton_says() {
+    // FJ,MZ = 0.25 N m on I = 0.5 kg m^2: theta = 0.25 t^2 (discrete: a t (t + h) / 2).
+    let text = format!("{HINGE}KBC,1\nTIME,1\nDELTIM,0.01\nFJ,1,MZ,0.25\nSOLVE\n");
+    let deck = parse_str(&text, "fj.inp").unwrap();
+    let mut m = DeckModel::build(&deck, BuildOptions::default()).unwrap();
+    run(&mut m, |_| {});
+    let (t, h) = (m.world.time(), 0.01 / 4.0);
+    let rot = out(&m, 0).rotation.z;
+    // The joint load is a kick-drift-kick force element and a stepped load is still 0 at the
+    // load step's first instant (the first half kick): the discrete solution is a t (t - h) / 2.
+    println!("FJ: rotation {rot:.9} vs 0.25 t^2 = {:.9}", 0.25 * t * t);
+    assert!((rot / (0.25 * t * (t - h)) - 1.0).abs() < 1e-6, "FJ: {rot}");
+    // F,2,FY on a slot-guided 2 kg mass, no gravity; the force persists across Lagrange steps.
+    let text = "/PREP7
+ET,1,MPC184,8
+ET,2,MASS21,,,2
+R,1,2
+LOCAL,11,0,0,0,0,90     ! e1 = +Y
+CSYS,0
+SECTYPE,1,JOINT,SLOT
+SECJOINT,LSYS,11
+N,2,1,0,0
+TYPE,1 $ SECNUM,1 $ E,,2
+TYPE,2 $ REAL,1 $ E,2
+FINISH
+/SOLU
+ANTYPE,TRANS
+KBC,1
+TIME,1
+DELTIM,0.01
+F,2,FY,3
+SOLVE
+";
+    let deck = parse_str(text, "f.inp").unwrap();
+    let mut m = DeckModel::build(&deck, BuildOptions::default()).unwrap();
+    run(&mut m, |_| {});
+    let (p, v) = m.node_state(2);
+    let a = 3.0 / 2.0;
+    assert!(
+        (p.y / (0.5 * a * t * (t + h)) - 1.0).abs() < 1e-6,
+        "F: y {}",
+        p.y
+    );
+    assert!((v.y / (a * t) - 1.0).abs() < 1e-6, "F: vy {}", v.y);
+}
+
+fn build_err(text: &str) -> String {
+    let deck = parse_str(text, "bad.inp").unwrap_or_else(|e| panic!("parse: {e}"));
+    match DeckModel::build(&deck, BuildOptions::default()) {
+        Ok(_) => panic!("expected an error"),
+        Err(e) => e.to_string(),
+    }
+}
+
+#[test]
+fn builder_errors_name_the_line_and_command() {
+    let link =
+        "/PREP7\nET,1,MPC184,0\nET,2,MASS21,,,2\nR,1,1\nN,1\nN,2,1\nE,1,2\nTYPE,2 $ E,1\n$ E,2\n";
+    let e = build_err(link);
+    assert!(e.starts_with("bad.inp:7: E: unsupported:"), "{e}");
+    assert!(e.contains("distance") && e.contains("hint"), "{e}");
+
+    let massless = HINGE.replace("TYPE,2 $ REAL,1 $ E,1\n", "");
+    let e = build_err(&massless);
+    assert!(e.starts_with("bad.inp:8: E: "), "{e}");
+    assert!(e.contains("node 1 carries no mass"), "{e}");
+
+    let e = build_err(&format!("{HINGE}ANTYPE,STATIC\nTIME,1\nNSUBST,10\nSOLVE\n"));
+    assert!(
+        e.starts_with("bad.inp:16: SOLVE: unsupported: a static analysis"),
+        "{e}"
+    );
+
+    let e = build_err(&format!("{HINGE}TIME,1\nDELTIM,0.1\nD,1,UX,0.1\nSOLVE\n"));
+    assert!(e.starts_with("bad.inp:15: D: unsupported"), "{e}");
+}
