@@ -222,7 +222,9 @@ impl FrictionLaw {
         match self {
             FrictionLaw::Coulomb(mu) => *mu,
             FrictionLaw::CoulombTable(t) => t.eval(v.abs()).0,
-            FrictionLaw::Exponential { mu_s, mu_d, c } => mu_d + (mu_s - mu_d) * (-c * v.abs()).exp(),
+            FrictionLaw::Exponential { mu_s, mu_d, c } => {
+                mu_d + (mu_s - mu_d) * (-c * v.abs()).exp()
+            }
         }
     }
 }
@@ -340,7 +342,9 @@ impl Friction {
                 }
                 n
             }
-            JointKind::Spherical => fi + g(0).unwrap_or(0.0) * (l[0] * l[0] + l[1] * l[1] + l[2] * l[2]).sqrt(),
+            JointKind::Spherical => {
+                fi + g(0).unwrap_or(0.0) * (l[0] * l[0] + l[1] * l[1] + l[2] * l[2]).sqrt()
+            }
             // The screw's normal force comes from its coupling row (see the solver).
             _ => fi,
         }
@@ -496,7 +500,8 @@ impl Behaviour {
             let bad = match &f.law {
                 FrictionLaw::Coulomb(mu) => !(mu.is_finite() && *mu >= 0.0),
                 FrictionLaw::CoulombTable(t) => {
-                    t.validate().map_err(|e| ("MUS", format!("MUS table: {e}")))?;
+                    t.validate()
+                        .map_err(|e| ("MUS", format!("MUS table: {e}")))?;
                     t.points.iter().any(|p| p.1 < 0.0)
                 }
                 FrictionLaw::Exponential { mu_s, mu_d, c } => {
@@ -507,13 +512,22 @@ impl Behaviour {
                 }
             };
             if bad {
-                return Err(("MUS", "friction coefficients must be finite and >= 0".into()));
+                return Err((
+                    "MUS",
+                    "friction coefficients must be finite and >= 0".into(),
+                ));
             }
-            if f.geometry.iter().flatten().any(|x| !(x.is_finite() && *x >= 0.0))
+            if f.geometry
+                .iter()
+                .flatten()
+                .any(|x| !(x.is_finite() && *x >= 0.0))
                 || !f.interference.is_finite()
                 || f.max_force.is_some_and(|x| !(x >= 0.0))
             {
-                return Err(("FRIC", "geometry, FI and TMX must be finite and >= 0".into()));
+                return Err((
+                    "FRIC",
+                    "geometry, FI and TMX must be finite and >= 0".into(),
+                ));
             }
             if matches!(kind, JointKind::Screw { .. }) && f.geometry[0].is_none_or(|r| r <= 0.0) {
                 return Err((

@@ -727,7 +727,10 @@ impl Mpc184World {
                         .collect()
                 })
                 .collect();
-            let g0: Vec<Real> = frows.iter().map(|(r, _)| rate_of(&self.lagrange, r)).collect();
+            let g0: Vec<Real> = frows
+                .iter()
+                .map(|(r, _)| rate_of(&self.lagrange, r))
+                .collect();
             let speed = g0.iter().map(|g| g * g).sum::<Real>().sqrt();
             let mu = fr.law.mu(speed);
             let mut total = vec![0.0; n];
@@ -739,7 +742,8 @@ impl Mpc184World {
                     crate::catalogue::JointKind::Screw { pitch } => {
                         let r = fr.geometry[0].unwrap_or(1.0);
                         fr.interference
-                            + screw.abs() * (1.0 + pitch * pitch / (r * r)).sqrt()
+                            + screw.abs()
+                                * (1.0 + pitch * pitch / (r * r)).sqrt()
                                 * (r * r + pitch * pitch).sqrt()
                     }
                     _ => fr.normal(&kind, &l),
@@ -750,7 +754,10 @@ impl Mpc184World {
                 }
                 let bound = bound * h;
                 // Impulse that sticks: total - W^-1 g (Gauss-Seidel on the small system).
-                let g: Vec<Real> = frows.iter().map(|(r, _)| rate_of(&self.lagrange, r)).collect();
+                let g: Vec<Real> = frows
+                    .iter()
+                    .map(|(r, _)| rate_of(&self.lagrange, r))
+                    .collect();
                 let mut target = total.clone();
                 let mut delta = vec![0.0; n];
                 for _ in 0..if n == 1 { 1 } else { 30 } {
@@ -795,7 +802,10 @@ impl Mpc184World {
                 }
                 total = target;
             }
-            let g1: Vec<Real> = frows.iter().map(|(r, _)| rate_of(&self.lagrange, r)).collect();
+            let g1: Vec<Real> = frows
+                .iter()
+                .map(|(r, _)| rate_of(&self.lagrange, r))
+                .collect();
             let mut lost = 0.0;
             for a in 0..n {
                 // Work = force times the DOF's actual travel in the substep (positions advance

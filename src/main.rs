@@ -186,7 +186,7 @@ fn default_job() -> Result<(), Failure> {
         summary.max_slider_x
     );
     println!(
-        "  energy balance drift {:+.3e} J (friction is not applied yet: the stop is elastic)",
+        "  energy balance drift {:+.3e} J (friction counted as dissipated; the stop is elastic)",
         summary.balance
     );
     Ok(())
@@ -239,7 +239,7 @@ fn check(path: &Path) -> Result<(), Failure> {
             side(j.bodies[0]),
             side(j.bodies[1]),
             if j.friction.is_some() {
-                "  friction (not applied yet)"
+                "  friction"
             } else {
                 ""
             }
@@ -314,8 +314,11 @@ impl Writers {
             for x in v {
                 write!(self.joints, ",{},{},{}", x.x, x.y, x.z)?;
             }
-            // Slip is empty: friction is not applied yet.
-            writeln!(self.joints, ",{},{},", o.stops, o.locks)?;
+            // Slip: 1 sliding, 0 sticking, empty without friction.
+            let slip = o
+                .friction
+                .map_or(String::new(), |f| u8::from(f.slipping).to_string());
+            writeln!(self.joints, ",{},{},{slip}", o.stops, o.locks)?;
         }
         for n in m.node_ids() {
             let (p, v) = m.node_state(n);

@@ -229,18 +229,15 @@ fn stops_and_locks_deck_respects_its_limits() {
 }
 
 #[test]
-fn slider_crank_keeps_its_loop_and_its_stop_and_keeps_the_friction_data() {
+fn slider_crank_keeps_its_loop_and_its_stop_with_friction() {
     let mut m = build("slider_crank.inp");
     let crank = &m.joints[0];
     let fr = crank.friction.as_ref().expect("MUS6 kept");
     assert_eq!(fr.tables[0].tbopt, "MUS6");
     assert_eq!(fr.tables[0].constants[0], Some(0.2));
     assert_eq!(fr.geometry, [Some(0.01), Some(0.008), Some(0.02)]);
-    assert!(
-        m.notes
-            .iter()
-            .any(|n| n.contains("friction is not applied yet"))
-    );
+    let applied = m.world.joint(crank.id).unwrap().behaviour.friction.clone();
+    assert_eq!(applied.map(|f| f.law), Some(FrictionLaw::Coulomb(0.2)));
     let (rc, lr) = (0.1, 0.3);
     let (mut loop_err, mut min_rot): (f64, f64) = (0.0, 0.0);
     let mut hit = false;
@@ -287,16 +284,31 @@ fn bricard_keeps_moving_without_nan() {
 }
 
 #[test]
-fn friction_incline_runs_frictionless_with_its_friction_kept() {
+fn friction_incline_slides_at_the_coulomb_rate() {
+    // The deck header: tan 30 > 0.3, so the block slides with a = g (sin 30 - 0.3 cos 30); the
+    // symplectic step integrates the constant force exactly in velocity and puts the travel at
+    // a t (t + h) / 2 (so both are checked to 1e-6, round-off and the solver's 1e-8
+    // regularisation of the normal force).
     let mut m = build("friction_incline.inp");
     let fr = m.joints[0].friction.as_ref().expect("MUS1 kept");
     assert_eq!(fr.tables[0].tbopt, "MUS1");
     assert_eq!(fr.geometry[..2], [Some(0.1), Some(0.05)]);
     run(&mut m, |_| {});
     let (t, h) = (m.world.time(), m.steps[0].dt / 4.0);
-    let a = G * 0.5; // frictionless until the friction model lands
-    let ux = out(&m, 0).displacement.x;
+    let s30 = 0.5;
+    let c30 = (3.0f64).sqrt() / 2.0;
+    let a = G * (s30 - 0.3 * c30);
+    let o = out(&m, 0);
+    let ux = o.displacement.x;
+    println!(
+        "friction incline: travel {ux:.9} m vs {:.9}, speed {:.9} vs {:.9}",
+        0.5 * a * t * (t + h),
+        o.velocity.x,
+        a * t
+    );
     assert!((ux / (0.5 * a * t * (t + h)) - 1.0).abs() < 1e-6, "ux {ux}");
+    assert!((o.velocity.x / (a * t) - 1.0).abs() < 1e-6);
+    assert!(o.friction.is_some_and(|f| f.slipping));
 }
 
 const HINGE: &str = "/PREP7

@@ -58,7 +58,11 @@ fn breakaway_moment_from_radial_and_axial_loads() {
     let s = (0.5 as Real).sqrt();
     let cases = [
         ("radial", Vector::new(0.0, -g, 0.0), MU * M * g * RI),
-        ("axial", Vector::new(0.0, 0.0, -g), MU * M * g * 0.5 * (RO + RI)),
+        (
+            "axial",
+            Vector::new(0.0, 0.0, -g),
+            MU * M * g * 0.5 * (RO + RI),
+        ),
         (
             "both",
             Vector::new(0.0, -g * s, -g * s),
@@ -72,7 +76,10 @@ fn breakaway_moment_from_radial_and_axial_loads() {
         println!(
             "{name}: limit {limit:.6} N m: below turns {below:.2e} rad, above {above:.4e} rad (expected {expected:.4e})"
         );
-        assert!(below.abs() <= 1e-12, "{name}: turned {below:.3e} below the limit");
+        assert!(
+            below.abs() <= 1e-12,
+            "{name}: turned {below:.3e} below the limit"
+        );
         assert!(
             (above - expected).abs() <= 1e-2 * expected,
             "{name}: turned {above:.4e} above the limit, expected {expected:.4e}"

@@ -55,14 +55,23 @@ fn coulomb_damped_oscillator_loses_4_mu_n_over_k_per_cycle() {
     }
     let rest = xs.last().unwrap().1;
     let creep = (rest - xs[xs.len() - 61].1).abs();
-    println!("extremes {extremes:?}, rest {rest:.6}, band {band:.6}, creep {creep:.2e}, balance {balance:.2e}");
+    println!(
+        "extremes {extremes:?}, rest {rest:.6}, band {band:.6}, creep {creep:.2e}, balance {balance:.2e}"
+    );
     for w in extremes.windows(2).take(4) {
         let dec = w[0].abs() - w[1].abs();
         let err = (dec - 2.0 * band).abs() / (2.0 * band);
-        assert!(err <= 1e-3, "half-cycle decrement {dec:.6} vs {:.6}", 2.0 * band);
+        assert!(
+            err <= 1e-3,
+            "half-cycle decrement {dec:.6} vs {:.6}",
+            2.0 * band
+        );
     }
     let expected_rest = -(x0 - 5.0 * 2.0 * band);
-    assert!((rest - expected_rest).abs() <= 1e-5, "rest {rest} vs {expected_rest}");
+    assert!(
+        (rest - expected_rest).abs() <= 1e-5,
+        "rest {rest} vs {expected_rest}"
+    );
     assert!(rest.abs() <= band);
     assert!(creep <= 1e-12, "creep {creep:.3e}");
     assert!(balance <= 5e-3, "energy balance {balance:.3e}");

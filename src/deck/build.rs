@@ -8,7 +8,7 @@
 //! | a body without mass | fixed if one of its nodes has `D,node,ALL,0`; otherwise an error naming the node |
 //! | `D,node,ALL,0` | the node's body is a Rapier fixed body |
 //! | MPC184 joints (KEYOPT(1) = 6..19) | [`Mpc184Joint`]: kind (KEYOPT(1), (4), `SECJOINT,RDOF`, `PITC`), method (KEYOPT(2), `PNLT`), frames (`SECJOINT,LSYS`), `SECSTOP`, `SECLOCK`, `SECDATA`, `TB,JOIN` STIF DAMP JNS* JND* |
-//! | `TB,JOIN` friction options (MUS*, EXP*, SL*, SK*, TMX*, FI*) | kept in [`DeckJoint::friction`] with a note: friction is not applied yet |
+//! | `TB,JOIN` friction options (MUS*, EXP*, SL*, SK*, TMX*, FI*) with `SECJOINT,FRIC` | [`crate::behaviour::Friction`] on the joint (the raw tables also kept in [`DeckJoint::friction`]); SK/SL are recorded, stick is exact |
 //! | `ACEL` | world gravity = -ACEL |
 //! | `DJ` (displacements; velocities stepped) | [`Mpc184World::set_drive`] |
 //! | `FJ` | [`Mpc184World::set_load`] |
@@ -18,7 +18,7 @@
 //!
 //! Everything else is an error that names the deck line (`FILE:LINE: COMMAND: what`): rigid
 //! links (KEYOPT(1) = 0: a distance constraint this crate has no row for), nonzero or partial
-//! `D`, `ANTYPE,STATIC`, `DJ` accelerations, initial displacements.
+//! `D`, `ANTYPE,STATIC`, initial displacements.
 //!
 //! Point masses: a body whose MASS21 elements give it no rotary inertia about some axis (point
 //! masses on a line, or a single point mass) gets `1e-6 m r^2` on that axis (`r` the largest
@@ -82,7 +82,7 @@ pub struct DeckBody {
     pub fixed: bool,
 }
 
-/// Friction data of a joint, parsed and kept for the friction issue (not applied yet).
+/// The raw friction data of a joint as the deck gives it (the model applied is on the joint).
 #[derive(Clone, Debug, PartialEq)]
 pub struct FrictionData {
     /// The friction `TB,JOIN` tables of the joint's material (`MUSn`, `EXPn`, `SLn`, `SKn`, `TMXn`, `FIn`).
@@ -102,7 +102,7 @@ pub struct DeckJoint {
     pub kind: JointKind,
     /// Lagrange or penalty.
     pub method: ConstraintMethod,
-    /// Friction data (not applied yet), if the deck gives any.
+    /// The deck's friction data, if any.
     pub friction: Option<FrictionData>,
     /// The bodies of nodes I and J (index into [`DeckModel::bodies`]; None: grounded).
     pub bodies: [Option<usize>; 2],
@@ -836,36 +836,32 @@ impl DeckModel {
                     };
                     profile(start, end, from, m.value, kbc)
                 }
-                MotionKind::Velocity => {
-                    let steady = prev == Some((MotionKind::Velocity, m.value));
-                    if kbc != LoadRamp::Stepped && !steady {
-                        return Err(unsupported(
-                            deck,
-                            m.line,
-                            "DJ",
-                            format!("a ramped relative velocity ({} with KBC,0)", m.label()),
-                            "a constant velocity is supported: give KBC,1 before SOLVE (or \
-                             prescribe the displacement with UX..ROTZ)",
-                        ));
-                    }
-                    DriveProfile {
-                        t0: start as Real,
-                        t1: end as Real,
-                        from: current as Real,
-                        to: (current + m.value * (end - start)) as Real,
-                        stepped: false,
-                        extend: true,
-                    }
-                }
-                MotionKind::Acceleration => {
-                    return Err(unsupported(
-                        deck,
-                        m.line,
-                        "DJ",
-                        format!("a prescribed relative acceleration ({})", m.label()),
-                        "prescribe the displacement (UX..ROTZ) or a constant velocity \
-                         (VELX..OMGZ with KBC,1)",
-                    ));
+                MotionKind::Velocity | MotionKind::Acceleration => {
+                    // Rates and accelerations ramp (KBC,0) from the value prescribed in the
+                    // previous load step, else from the DOF's current rate (or 0 for an
+                    // acceleration); the drive integrates them exactly from now on.
+                    let o = self.world.output(id)?;
+                    let rate = if dof.is_rotation() {
+                        o.angular_velocity[dof.index() - 3]
+                    } else {
+                        o.velocity[dof.index()]
+                    } as f64;
+                    let from = match (prev, m.kind) {
+                        (Some((k, v)), _) if k == m.kind => v,
+                        (_, MotionKind::Velocity) => rate,
+                        _ => 0.0,
+                    };
+                    let level = if m.kind == MotionKind::Velocity {
+                        crate::world::DriveLevel::Velocity
+                    } else {
+                        crate::world::DriveLevel::Acceleration
+                    };
+                    let p = profile(start, end, from, m.value, kbc);
+                    self.world
+                        .set_drive_level(id, dof, level, p)
+                        .map_err(|e| at_line(deck, m.line, "DJ", e))?;
+                    dj_now.insert((m.element, m.dof), (m.kind, m.value));
+                    continue;
                 }
             };
             self.world
@@ -1078,6 +1074,93 @@ fn plan_steps(deck: &Deck) -> Result<Vec<StepPlan>, Error> {
 
 type BuiltJoint = (Mpc184Joint, Option<FrictionData>);
 
+/// The friction model from a joint's friction `TB,JOIN` tables: the law from `MUSn` (TBDATA C1,
+/// or the TBPT table against slip rate when it has points) or `EXPn` (C1..C3 = mu_s, mu_d, c),
+/// `TMXn` C1 the largest friction force, `FIn` C1 the interference fit, `SKn`/`SLn` recorded.
+/// The suffix n must be the joint's friction DOF (1 UX, 4 ROTX, 6 ROTZ).
+fn friction_model(
+    deck: &Deck,
+    element: u32,
+    kind: &JointKind,
+    fd: &FrictionData,
+) -> Result<crate::behaviour::Friction, Error> {
+    use crate::behaviour::{Friction, FrictionLaw};
+    let Some(dofs) = Friction::dofs(kind) else {
+        let line = fd.tables.first().map_or(0, |t| t.line);
+        return Err(unsupported(
+            deck,
+            line,
+            "TB",
+            format!("friction on a {} joint (element {element})", kind.name()),
+            "MPC184 friction acts on revolute, slot, translational and spherical joints (and, \
+             as our extension, the screw)",
+        ));
+    };
+    let n_expected = dofs[dofs.len() - 1].number();
+    let mut law = None;
+    let mut fr = Friction::coulomb(0.0, sec_geometry(fd));
+    for t in &fd.tables {
+        let opt = t.tbopt.as_str();
+        let c = |k: usize| t.constants.get(k).copied().flatten().unwrap_or(0.0) as Real;
+        let digits = opt.trim_start_matches(|ch: char| ch.is_ascii_alphabetic());
+        let n: u8 = digits.parse().unwrap_or(0);
+        if n != n_expected {
+            return Err(invalid(
+                deck,
+                t.line,
+                "TB",
+                format!(
+                    "TB,JOIN,,,,{opt}: a {} joint takes friction option suffix {n_expected} \
+                     (element {element})",
+                    kind.name()
+                ),
+            ));
+        }
+        match opt.trim_end_matches(|ch: char| ch.is_ascii_digit()) {
+            "MUS" => {
+                law = Some(if t.points.is_empty() {
+                    FrictionLaw::Coulomb(c(0))
+                } else {
+                    FrictionLaw::CoulombTable(Table {
+                        points: t
+                            .points
+                            .iter()
+                            .map(|p| (p[0] as Real, p[1] as Real))
+                            .collect(),
+                    })
+                });
+            }
+            "EXP" => {
+                law = Some(FrictionLaw::Exponential {
+                    mu_s: c(0),
+                    mu_d: c(1),
+                    c: c(2),
+                });
+            }
+            "TMX" => fr.max_force = Some(c(0)),
+            "FI" => fr.interference = c(0),
+            "SK" => fr.stick_stiffness = Some(c(0)),
+            "SL" => fr.elastic_slip = Some(c(0)),
+            _ => {}
+        }
+    }
+    let Some(law) = law else {
+        let line = fd.tables.first().map_or(0, |t| t.line);
+        return Err(invalid(
+            deck,
+            line,
+            "TB",
+            format!("element {element}: friction options without a law (MUSn or EXPn)"),
+        ));
+    };
+    fr.law = law;
+    Ok(fr)
+}
+
+fn sec_geometry(fd: &FrictionData) -> [Option<Real>; 3] {
+    fd.geometry.map(|g| g.map(|x| x as Real))
+}
+
 fn build_joint(
     deck: &Deck,
     e: &crate::deck::model::Element,
@@ -1287,11 +1370,6 @@ fn build_joint(
                 .iter()
                 .any(|p| numbered(p).is_some()) =>
             {
-                notes.push(format!(
-                    "{}:{}: TB,JOIN,{},,,{opt}: friction is not applied yet (the values are \
-                     kept for the friction model); joint element {} runs frictionless",
-                    deck.file, t.line, t.material, e.id
-                ));
                 friction_tables.push(t.clone());
             }
             other => {
@@ -1300,8 +1378,8 @@ fn build_joint(
                     t.line,
                     "TB",
                     format!("TB,JOIN option {other}"),
-                    "supported: STIF, DAMP, JNS1..6, JNSA, JND1..6, JNDA, and the friction \
-                     options (kept, not applied yet)",
+                    "supported: STIF, DAMP, JNS1..6, JNSA, JND1..6, JNDA, MUSn, EXPn, SLn, SKn, \
+                     TMXn, FIn",
                 ));
             }
         }
@@ -1314,6 +1392,9 @@ fn build_joint(
             geometry: sec.friction_geometry,
         })
     };
+    if let Some(fd) = &friction {
+        joint = joint.with_friction(friction_model(deck, e.id, &kind, fd)?);
+    }
     joint.behaviour.validate(&kind).map_err(|(field, reason)| {
         let line = match field {
             "SECSTOP" | "SECLOCK" => sec
