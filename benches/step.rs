@@ -10,6 +10,10 @@
 //! One iteration is one `step()` at dt = 1/60 with 4 substeps on a world that keeps moving (no
 //! reset between iterations). Single thread, f64 by default. criterion is built without its
 //! default features (no rayon, no plotters: text reports only).
+#![allow(
+    missing_docs,
+    reason = "criterion_group! generates an undocumented function"
+)]
 
 use std::hint::black_box;
 use std::time::Duration;

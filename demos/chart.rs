@@ -6,8 +6,8 @@
 //! Rapier multibody where it takes the scene), over a sweep of dt and substeps, it measures the
 //! error against a reference and the CPU time per simulated second, and draws:
 //!
-//! - `runs.csv`: every run (scene, method, dt, substeps, cpu_s_per_sim_s, traj_err,
-//!   energy_drift, max_gap, status);
+//! - `runs.csv`: every run (scene, method, dt, substeps, `cpu_s_per_sim_s`, `traj_err`,
+//!   `energy_drift`, `max_gap`, status);
 //! - `wp_<scene>.{png,svg}` (trajectory error against CPU time) and `energy_<scene>.{png,svg}`
 //!   (energy error against CPU time): log-log, one line per method through its own best runs,
 //!   the Pareto front over all methods ringed, failed runs as crosses along the top, the IFToMM
@@ -68,8 +68,8 @@ OPTIONS:
     --out DIR    output directory (default docs/charts)
     --help       this text";
 
-/// Bundled font (DejaVu Sans, Bitstream Vera licence: `assets/fonts/DejaVuSans-LICENSE.txt`):
-/// plotters renders text with ab_glyph from these bytes, no system font needed.
+/// Bundled font (`DejaVu` Sans, Bitstream Vera licence: `assets/fonts/DejaVuSans-LICENSE.txt`):
+/// plotters renders text with `ab_glyph` from these bytes, no system font needed.
 static FONT: &[u8] = include_bytes!("../assets/fonts/DejaVuSans.ttf");
 
 /// Output steps of the trajectory comparison (s): every dt of the sweep divides it.
@@ -264,13 +264,19 @@ impl Scene {
         }
     }
 
-    fn build(self, cfg: &Config, settings: WorldSettings) -> Result<Benchmark, rapier3d_mpc184::Error> {
+    fn build(
+        self,
+        cfg: &Config,
+        settings: WorldSettings,
+    ) -> Result<Benchmark, rapier3d_mpc184::Error> {
         match self {
             Scene::A01 => pendulum_benchmark(settings),
             Scene::A02 => benchmarks::four_bar_parallelogram(settings),
             Scene::A04 => benchmarks::bricard(settings),
             Scene::Chain => chain(settings, cfg.chain_links, 1000.0),
-            Scene::SliderCrank => benchmarks::slider_crank_with(settings, RodSliderJoint::Spherical),
+            Scene::SliderCrank => {
+                benchmarks::slider_crank_with(settings, RodSliderJoint::Spherical)
+            }
         }
     }
 }
@@ -304,7 +310,11 @@ fn pendulum_benchmark(settings: WorldSettings) -> Result<Benchmark, rapier3d_mpc
 
 const PENDULUM_INERTIA: f64 = 1e-4;
 
-fn chain(settings: WorldSettings, n: usize, ratio: f64) -> Result<Benchmark, rapier3d_mpc184::Error> {
+fn chain(
+    settings: WorldSettings,
+    n: usize,
+    ratio: f64,
+) -> Result<Benchmark, rapier3d_mpc184::Error> {
     benchmarks::chain(
         settings,
         n,
@@ -324,11 +334,18 @@ fn settings(method: Method, dt: f64, substeps: usize) -> WorldSettings {
 }
 
 /// Builds `scene` for `method` (`None`: the method does not take the scene).
-fn build(scene: Scene, cfg: &Config, method: Method, dt: f64, substeps: usize) -> Option<Benchmark> {
+fn build(
+    scene: Scene,
+    cfg: &Config,
+    method: Method,
+    dt: f64,
+    substeps: usize,
+) -> Option<Benchmark> {
     let mut b = scene.build(cfg, settings(method, dt, substeps)).ok()?;
     if let Method::Penalty(k) = method {
         let k = -(k as Real);
-        b.set_method(ConstraintMethod::Penalty { disp: k, rot: k }).ok()?;
+        b.set_method(ConstraintMethod::Penalty { disp: k, rot: k })
+            .ok()?;
     }
     Some(b)
 }
@@ -586,13 +603,16 @@ fn run(cfg: &Config, out: &Path) -> DynResult<()> {
             for &rate in &cfg.rates {
                 for &sub in &cfg.substeps {
                     let dt = 1.0 / rate as f64;
-                    progress.tick(&format!("{} {} 1/{rate} x{sub}", scene.key(), method.name()));
+                    progress.tick(&format!(
+                        "{} {} 1/{rate} x{sub}",
+                        scene.key(),
+                        method.name()
+                    ));
                     let Some(b) = build(scene, cfg, method, dt, sub) else {
                         continue;
                     };
                     let secs = cfg.durations[scene.index()];
-                    let (cpu, traj, energy, gap, status) =
-                        simulate(
+                    let (cpu, traj, energy, gap, status) = simulate(
                         scene,
                         b,
                         dt,
@@ -652,7 +672,12 @@ fn run(cfg: &Config, out: &Path) -> DynResult<()> {
     std::fs::write(out.join("summary.md"), &summary)?;
     files.push("summary.md".into());
     println!("{summary}");
-    println!("wrote {} files to {}: {}", files.len(), out.display(), files.join(" "));
+    println!(
+        "wrote {} files to {}: {}",
+        files.len(),
+        out.display(),
+        files.join(" ")
+    );
     Ok(())
 }
 
@@ -679,7 +704,6 @@ fn write_csv(path: &Path, runs: &[Run]) -> DynResult<()> {
     Ok(())
 }
 
-
 /// Outcome of one cell of the chain stability map.
 #[derive(Clone, Debug)]
 struct Cell {
@@ -703,13 +727,14 @@ fn stability_map(cfg: &Config, progress: &mut Progress) -> Vec<Cell> {
             for &sub in &cfg.substeps {
                 progress.tick(&format!("stability {} 1:{ratio} x{sub}", method.name()));
                 let built = chain(settings(method, dt, sub), cfg.stability_links, ratio);
-                let mut b = match built {
-                    Ok(b) => b,
-                    Err(_) => continue,
+                let Ok(mut b) = built else {
+                    continue;
                 };
                 if let Method::Penalty(k) = method {
                     let k = -(k as Real);
-                    if b.set_method(ConstraintMethod::Penalty { disp: k, rot: k }).is_err() {
+                    if b.set_method(ConstraintMethod::Penalty { disp: k, rot: k })
+                        .is_err()
+                    {
                         continue;
                     }
                 }
@@ -773,7 +798,9 @@ fn scaling(cfg: &Config, progress: &mut Progress) -> Vec<Cost> {
             };
             if let Method::Penalty(k) = method {
                 let k = -(k as Real);
-                if b.set_method(ConstraintMethod::Penalty { disp: k, rot: k }).is_err() {
+                if b.set_method(ConstraintMethod::Penalty { disp: k, rot: k })
+                    .is_err()
+                {
                     continue;
                 }
             }
@@ -816,7 +843,13 @@ enum Chart<'a> {
 
 impl Chart<'_> {
     /// Draws `name.png` and `name.svg` into `out`.
-    fn save(&self, out: &Path, name: &str, size: (u32, u32), files: &mut Vec<String>) -> DynResult<()> {
+    fn save(
+        &self,
+        out: &Path,
+        name: &str,
+        size: (u32, u32),
+        files: &mut Vec<String>,
+    ) -> DynResult<()> {
         let png = out.join(format!("{name}.png"));
         self.draw(BitMapBackend::new(&png, size).into_drawing_area())?;
         let svg = out.join(format!("{name}.svg"));
@@ -875,7 +908,11 @@ where
     DB::ErrorType: 'static,
 {
     let y = |r: &Run| (if energy { r.energy } else { r.traj }).max(ERR_FLOOR);
-    let shown: Vec<&Run> = runs.iter().copied().filter(|r| !r.status.starts_with("skipped")).collect();
+    let shown: Vec<&Run> = runs
+        .iter()
+        .copied()
+        .filter(|r| !r.status.starts_with("skipped"))
+        .collect();
     let cpus: Vec<f64> = shown.iter().map(|r| r.cpu).filter(|c| *c > 0.0).collect();
     let (x0, x1) = cpus
         .iter()
@@ -904,9 +941,15 @@ where
         .draw()?;
     let gray = RGBColor(110, 110, 110);
     if !energy {
-        for (level, label) in [(1e-1, "IFToMM low precision 1e-1 m"), (1e-3, "IFToMM high precision 1e-3 m")] {
+        for (level, label) in [
+            (1e-1, "IFToMM low precision 1e-1 m"),
+            (1e-3, "IFToMM high precision 1e-3 m"),
+        ] {
             if level > y0 && level < y1 {
-                chart.draw_series(LineSeries::new([(x0, level), (x1, level)], gray.stroke_width(1)))?;
+                chart.draw_series(LineSeries::new(
+                    [(x0, level), (x1, level)],
+                    gray.stroke_width(1),
+                ))?;
                 chart.draw_series(std::iter::once(Text::new(
                     label,
                     (x0 * 1.1, level * 1.25),
@@ -916,7 +959,10 @@ where
         }
     }
     if 1.0 > x0 && 1.0 < x1 {
-        chart.draw_series(LineSeries::new([(1.0, y0), (1.0, y1)], BLACK.stroke_width(1)))?;
+        chart.draw_series(LineSeries::new(
+            [(1.0, y0), (1.0, y1)],
+            BLACK.stroke_width(1),
+        ))?;
         chart.draw_series(std::iter::once(Text::new(
             "real time",
             (1.08, y0 * 2.0),
@@ -924,23 +970,31 @@ where
         )))?;
     }
     // Failed runs: crosses along the top at their CPU time.
-    chart.draw_series(
-        LineSeries::new([(x0, fail_y / 1.6), (x1, fail_y / 1.6)], RGBColor(220, 220, 220).stroke_width(1)),
-    )?;
+    chart.draw_series(LineSeries::new(
+        [(x0, fail_y / 1.6), (x1, fail_y / 1.6)],
+        RGBColor(220, 220, 220).stroke_width(1),
+    ))?;
     chart.draw_series(std::iter::once(Text::new(
         "failed runs (x)",
         (x0 * 1.1, fail_y * 1.35),
         ("sans-serif", 13).into_font().color(&gray),
     )))?;
     for method in METHODS {
-        let mine: Vec<&Run> = shown.iter().copied().filter(|r| r.method == method).collect();
+        let mine: Vec<&Run> = shown
+            .iter()
+            .copied()
+            .filter(|r| r.method == method)
+            .collect();
         if mine.is_empty() {
             continue;
         }
         let c = method.color();
         let front = pareto(mine.iter().copied(), y);
         chart
-            .draw_series(LineSeries::new(front.iter().map(|r| (r.cpu, y(r))), c.stroke_width(2)))?
+            .draw_series(LineSeries::new(
+                front.iter().map(|r| (r.cpu, y(r))),
+                c.stroke_width(2),
+            ))?
             .label(method.name())
             .legend(move |(x, yy)| PathElement::new([(x, yy), (x + 20, yy)], c.stroke_width(3)));
         chart.draw_series(
@@ -956,7 +1010,11 @@ where
     }
     let front = pareto(shown.iter().copied(), y);
     chart
-        .draw_series(front.iter().map(|r| Circle::new((r.cpu, y(r)), 7, BLACK.stroke_width(1))))?
+        .draw_series(
+            front
+                .iter()
+                .map(|r| Circle::new((r.cpu, y(r)), 7, BLACK.stroke_width(1))),
+        )?
         .label("Pareto front (all methods)")
         .legend(|(x, yy)| Circle::new((x + 10, yy), 6, BLACK.stroke_width(1)));
     chart
@@ -1055,9 +1113,9 @@ where
     DB::ErrorType: 'static,
 {
     let n1 = costs.iter().map(|c| c.n).max().unwrap_or(10) as f64;
-    let (y0, y1) = costs
-        .iter()
-        .fold((f64::INFINITY, 0.0f64), |(a, b), c| (a.min(c.us_per_step), b.max(c.us_per_step)));
+    let (y0, y1) = costs.iter().fold((f64::INFINITY, 0.0f64), |(a, b), c| {
+        (a.min(c.us_per_step), b.max(c.us_per_step))
+    });
     let mut chart = ChartBuilder::on(root)
         .caption(
             "chain cost per step (dt 1/60, 4 substeps, ratio 1, single thread)",
@@ -1066,7 +1124,10 @@ where
         .margin(12)
         .x_label_area_size(45)
         .y_label_area_size(70)
-        .build_cartesian_2d((8.0..n1 * 1.3).log_scale(), ((y0 / 2.0).max(0.1)..y1 * 3.0).log_scale())?;
+        .build_cartesian_2d(
+            (8.0..n1 * 1.3).log_scale(),
+            ((y0 / 2.0).max(0.1)..y1 * 3.0).log_scale(),
+        )?;
     chart
         .configure_mesh()
         .x_desc("links N")
@@ -1075,7 +1136,12 @@ where
         .label_style(("sans-serif", 14))
         .axis_desc_style(("sans-serif", 15))
         .draw()?;
-    for method in [Method::Lagrange, Method::Penalty(1e6), Method::Impulse, Method::Multibody] {
+    for method in [
+        Method::Lagrange,
+        Method::Penalty(1e6),
+        Method::Impulse,
+        Method::Multibody,
+    ] {
         let pts: Vec<(f64, f64)> = costs
             .iter()
             .filter(|c| c.method == method)
@@ -1097,8 +1163,15 @@ where
         for (p, label) in [(1.0, "~N"), (3.0, "~N^3")] {
             let end = (n1.min(nb * 10f64.powf(3.0 / p)), 0.0);
             let end = (end.0, yb * (end.0 / nb).powf(p));
-            chart.draw_series(LineSeries::new([(nb, yb), end], BLACK.mix(0.4).stroke_width(1)))?;
-            chart.draw_series(std::iter::once(Text::new(label, end, ("sans-serif", 13).into_font())))?;
+            chart.draw_series(LineSeries::new(
+                [(nb, yb), end],
+                BLACK.mix(0.4).stroke_width(1),
+            ))?;
+            chart.draw_series(std::iter::once(Text::new(
+                label,
+                end,
+                ("sans-serif", 13).into_font(),
+            )))?;
         }
     }
     chart
@@ -1112,7 +1185,12 @@ where
 }
 
 fn fmt_run(r: &Run, y: f64) -> String {
-    format!("{} {} ({:.2e} s/s, {y:.1e})", r.method.name(), r.setting(), r.cpu)
+    format!(
+        "{} {} ({:.2e} s/s, {y:.1e})",
+        r.method.name(),
+        r.setting(),
+        r.cpu
+    )
 }
 
 fn summary(
@@ -1155,17 +1233,27 @@ fn summary(
                 mine.iter()
                     .filter(|r| r.ok() && r.traj <= lim)
                     .min_by(|a, b| a.cpu.total_cmp(&b.cpu))
-                    .map_or("never".to_string(), |r| format!("{} ({:.2e} s/s)", r.setting(), r.cpu))
+                    .map_or("never".to_string(), |r| {
+                        format!("{} ({:.2e} s/s)", r.setting(), r.cpu)
+                    })
             };
             let best = mine
                 .iter()
                 .filter(|r| r.ok())
                 .min_by(|a, b| a.traj.total_cmp(&b.traj))
-                .map_or("-".to_string(), |r| format!("{:.1e} at {}", r.traj, r.setting()));
+                .map_or("-".to_string(), |r| {
+                    format!("{:.1e} at {}", r.traj, r.setting())
+                });
             let fails: Vec<String> = mine
                 .iter()
                 .filter(|r| r.failed())
-                .map(|r| format!("{} {}", r.setting(), r.status.trim_start_matches("failed: ")))
+                .map(|r| {
+                    format!(
+                        "{} {}",
+                        r.setting(),
+                        r.status.trim_start_matches("failed: ")
+                    )
+                })
                 .collect();
             let n = |f: &dyn Fn(&Run) -> bool| mine.iter().filter(|r| f(r)).count();
             let _ = writeln!(
@@ -1177,13 +1265,24 @@ fn summary(
                 n(&|r| r.status.starts_with("skipped")),
                 cheapest(1e-1),
                 cheapest(1e-3),
-                if fails.is_empty() { "none".into() } else { fails.join("; ") }
+                if fails.is_empty() {
+                    "none".into()
+                } else {
+                    fails.join("; ")
+                }
             );
         }
         let _ = writeln!(s);
     }
-    let _ = writeln!(s, "## Chain stability (dt 1/60, {} links)\n", cfg.stability_links);
-    let _ = writeln!(s, "| method | ratio | substeps | class | max gap m | status |\n|---|---|---|---|---|---|");
+    let _ = writeln!(
+        s,
+        "## Chain stability (dt 1/60, {} links)\n",
+        cfg.stability_links
+    );
+    let _ = writeln!(
+        s,
+        "| method | ratio | substeps | class | max gap m | status |\n|---|---|---|---|---|---|"
+    );
     for c in cells {
         let _ = writeln!(
             s,
@@ -1196,9 +1295,18 @@ fn summary(
             c.status
         );
     }
-    let _ = writeln!(s, "\n## Chain cost per step (dt 1/60, 4 substeps)\n\n| method | N | us/step |\n|---|---|---|");
+    let _ = writeln!(
+        s,
+        "\n## Chain cost per step (dt 1/60, 4 substeps)\n\n| method | N | us/step |\n|---|---|---|"
+    );
     for c in costs {
-        let _ = writeln!(s, "| {} | {} | {:.0} |", c.method.name(), c.n, c.us_per_step);
+        let _ = writeln!(
+            s,
+            "| {} | {} | {:.0} |",
+            c.method.name(),
+            c.n,
+            c.us_per_step
+        );
     }
     s
 }

@@ -38,14 +38,25 @@ fn quick_sweep_writes_every_chart() {
     assert!(rows.iter().all(|r| r.len() == 9), "ragged rows");
     let pendulum = rows
         .iter()
-        .find(|r| r[0] == "a01_pendulum" && r[1] == "lagrange" && r[2].starts_with("0.01666") && r[3] == "2")
+        .find(|r| {
+            r[0] == "a01_pendulum"
+                && r[1] == "lagrange"
+                && r[2].starts_with("0.01666")
+                && r[3] == "2"
+        })
         .expect("the Lagrange pendulum at 1/60 x2");
     let err: f64 = pendulum[5].parse().expect("traj_err");
     assert_eq!(pendulum[8], "ok");
     assert!(err > 0.0 && err < 0.1, "pendulum error {err}");
 
     let mut charts = vec!["stability_chain".to_string(), "scaling_chain".to_string()];
-    for scene in ["a01_pendulum", "a02_four_bar", "a04_bricard", "chain", "slider_crank"] {
+    for scene in [
+        "a01_pendulum",
+        "a02_four_bar",
+        "a04_bricard",
+        "chain",
+        "slider_crank",
+    ] {
         charts.push(format!("wp_{scene}"));
         charts.push(format!("energy_{scene}"));
     }
@@ -58,6 +69,9 @@ fn quick_sweep_writes_every_chart() {
     assert!(dir.join("summary.md").exists());
     let _ = std::fs::remove_dir_all(&dir);
 
-    let bad = Command::new(BIN).arg("--bogus").output().expect("chart runs");
+    let bad = Command::new(BIN)
+        .arg("--bogus")
+        .output()
+        .expect("chart runs");
     assert_eq!(bad.status.code(), Some(2));
 }

@@ -1,4 +1,4 @@
-//! SECLOCK with an applied joint moment (VM179-like): a wheel (I_zz = 0.1 kg m^2, centre on
+//! SECLOCK with an applied joint moment (VM179-like): a wheel (`I_zz` = 0.1 kg m^2, centre on
 //! the axis, so gravity does no work) on a grounded revolute z is driven by `FJ,MZ = 0.5 N m`
 //! from rest and locks at `SECLOCK,6,-5 deg,5 deg`.
 //!

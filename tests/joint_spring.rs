@@ -90,7 +90,7 @@ fn damped_oscillator_decays_by_the_logarithmic_decrement() {
     let mut xs = vec![X0];
     let mut maxima = Vec::new();
     let mut balance: Real = 0.0;
-    for _ in 0..(10.0 * 2.0 * 3.14159 / omega * 60.0) as usize {
+    for _ in 0..(10.0 * 2.0 * rapier3d_mpc184::math::PI / omega * 60.0) as usize {
         world.step().unwrap();
         xs.push(world.output(id).unwrap().measure[0] + X0);
         let n = xs.len();
