@@ -5,7 +5,8 @@
 //!   timed steps (Rapier's backends blow up at 1:1000, see `docs/charts/stability_chain.png`);
 //! - `mixed1000/<backend>`: 1000 joints of five kinds, 200 independent five-body arms hanging from
 //!   the ground: revolute z, spherical, cylindrical z, revolute x and translational (the kinds
-//!   every backend takes), on 1000 bodies.
+//!   every backend takes), on 1000 bodies; Lagrange and Rapier impulse only (Rapier multibody did
+//!   not finish a sample within 100 s on it).
 //!
 //! One iteration is one `step()` at dt = 1/60 with 4 substeps on a world that keeps moving (no
 //! reset between iterations). Single thread, f64 by default. criterion is built without its
@@ -100,7 +101,9 @@ fn bench(c: &mut Criterion) {
         .sample_size(10)
         .warm_up_time(Duration::from_millis(500))
         .measurement_time(Duration::from_secs(3));
-    for backend in BACKENDS {
+    // Rapier multibody is left out here: on this scene `cargo bench -- --quick` did not finish
+    // its first sample within 100 s (not investigated yet).
+    for backend in [Backend::Lagrange, Backend::RapierImpulse] {
         let Ok(mut world) = mixed(backend) else {
             continue;
         };
