@@ -81,13 +81,13 @@ impl Sym6 {
     )]
     pub fn apply(&self, x: &[Real; 6], free: crate::dof::DofMask) -> [Real; 6] {
         let mut y = [0.0; 6];
-        for i in 0..6 {
+        for (i, yi) in y.iter_mut().enumerate() {
             if !free.contains(Dof::ALL[i]) {
                 continue;
             }
-            for j in 0..6 {
+            for (j, xj) in x.iter().enumerate() {
                 if free.contains(Dof::ALL[j]) {
-                    y[i] += self.get(i, j) * x[j];
+                    *yi += self.get(i, j) * xj;
                 }
             }
         }

@@ -93,6 +93,22 @@ impl Benchmark {
         v + w.cross(x - rb.center_of_mass())
     }
 
+    /// Rebuilds every joint with `method` (ANSYS KEYOPT(2): `ConstraintMethod::Penalty` turns the
+    /// scene's joints into penalty joints). Call before the first step: the joints are removed and
+    /// inserted again at the current (initial) pose, and `joints` gets the new ids.
+    ///
+    /// Errors: those of [`Mpc184World::insert_joint`] (penalty joints run on the Lagrange backend
+    /// only).
+    pub fn set_method(&mut self, method: crate::joint::ConstraintMethod) -> Result<(), Error> {
+        for (id, [b1, b2]) in self.joints.iter_mut().zip(&self.joint_bodies) {
+            let joint = self.world.remove_joint(*id)?;
+            *id = self
+                .world
+                .insert_joint(*b1, *b2, joint.with_method(method))?;
+        }
+        Ok(())
+    }
+
     /// Largest translational constraint error over all joints (m).
     pub fn max_gap(&self) -> Result<Real, Error> {
         self.joints

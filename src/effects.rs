@@ -15,8 +15,8 @@
 //!     (`g+ = -gap / h`) and stays while pushed; the kinetic energy lost is dissipated.
 //!   - Locks land the same way and are then held by a permanent row from the next step on.
 //!
-//! After the position projection a limit still violated by more than the projection
-//! tolerance is projected back the same way (position level, start-of-substep directions).
+//!   After the position projection a limit still violated by more than the projection
+//!   tolerance is projected back the same way (position level, start-of-substep directions).
 
 use serde::{Deserialize, Serialize};
 
@@ -27,6 +27,10 @@ use crate::joint::ConstraintMethod;
 use crate::math::{Real, Vector};
 use crate::rows::{FramePair, RowEval, RowKind};
 use crate::world::{Drive, Mpc184World, frame_pair};
+
+/// A joint's ANSYS frame pair, the dynamic-body slots of its two sides and each side's velocity
+/// (linear at the centre of mass, angular).
+type EffectFrames = (FramePair, [Option<usize>; 2], [[Vector; 2]; 2]);
 
 /// Per-joint solver state of the behaviour (not model data).
 #[derive(Clone, Debug, Default)]
@@ -112,11 +116,7 @@ struct Active {
 impl Mpc184World {
     /// The ANSYS frame pair of joint `j` at the solver's current body states, the dynamic-body
     /// slots of its two sides, and each side's velocity (linear at the centre of mass, angular).
-    #[allow(
-        clippy::type_complexity,
-        reason = "a private helper returning three plain parts"
-    )]
-    fn effect_frames(&self, j: usize) -> Option<(FramePair, [Option<usize>; 2], [[Vector; 2]; 2])> {
+    fn effect_frames(&self, j: usize) -> Option<EffectFrames> {
         let e = self.joints.get(j)?.as_ref()?;
         let ls = &self.lagrange;
         let side = |b| match ls.index.get(&b) {
@@ -518,14 +518,13 @@ impl Mpc184World {
             if p[a] == 0.0 {
                 continue;
             }
-            #[allow(clippy::needless_range_loop, reason = "body slots index two arrays")]
-            for i in 0..nb {
+            for (i, dvi) in dv.iter().enumerate().take(nb) {
                 if velocity_level {
-                    for c in 0..6 {
-                        ls.rhs_b[i][c] += p[a] * dv[i][c];
+                    for (rhs, d) in ls.rhs_b[i].iter_mut().zip(dvi) {
+                        *rhs += p[a] * d;
                     }
                 } else {
-                    let d = dv[i].map(|x| x * p[a]);
+                    let d = dvi.map(|x| x * p[a]);
                     let s = &mut ls.st[i];
                     crate::lagrange::displace_state(s, d);
                     s.linvel += Vector::new(d[0], d[1], d[2]) / h;

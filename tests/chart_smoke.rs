@@ -1,0 +1,77 @@
+//! Smoke test of the `chart` binary (the work-precision study): `--quick` into a temporary
+//! directory exits 0 and writes runs.csv with the documented header, every chart as a non-empty
+//! PNG (with the PNG signature) and SVG (with text drawn through the bundled font), and
+//! summary.md; on the pendulum the Lagrange backend is within IFToMM's low precision (1e-1 m) at
+//! dt = 1/60 with 2 substeps. A bad flag exits 2.
+//!
+//! Needs the `charts` feature (`cargo test --release --features charts --test chart_smoke`): CI
+//! runs the default features only, so this test is not part of CI.
+#![cfg(feature = "charts")]
+
+use std::process::Command;
+
+const BIN: &str = env!("CARGO_BIN_EXE_chart");
+
+#[test]
+fn quick_sweep_writes_every_chart() {
+    let dir = std::env::temp_dir().join(format!("mpc184_chart_{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let out = Command::new(BIN)
+        .args(["--quick", "--out"])
+        .arg(&dir)
+        .output()
+        .expect("chart runs");
+    assert!(
+        out.status.success(),
+        "chart --quick failed\nstdout:\n{}\nstderr:\n{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let csv = std::fs::read_to_string(dir.join("runs.csv")).expect("runs.csv");
+    let mut lines = csv.lines();
+    assert_eq!(
+        lines.next(),
+        Some("scene,method,dt,substeps,cpu_s_per_sim_s,traj_err,energy_drift,max_gap,status")
+    );
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    assert!(rows.len() > 50, "{} runs", rows.len());
+    assert!(rows.iter().all(|r| r.len() == 9), "ragged rows");
+    let pendulum = rows
+        .iter()
+        .find(|r| {
+            r[0] == "a01_pendulum"
+                && r[1] == "lagrange"
+                && r[2].starts_with("0.01666")
+                && r[3] == "2"
+        })
+        .expect("the Lagrange pendulum at 1/60 x2");
+    let err: f64 = pendulum[5].parse().expect("traj_err");
+    assert_eq!(pendulum[8], "ok");
+    assert!(err > 0.0 && err < 0.1, "pendulum error {err}");
+
+    let mut charts = vec!["stability_chain".to_string(), "scaling_chain".to_string()];
+    for scene in [
+        "a01_pendulum",
+        "a02_four_bar",
+        "a04_bricard",
+        "chain",
+        "slider_crank",
+    ] {
+        charts.push(format!("wp_{scene}"));
+        charts.push(format!("energy_{scene}"));
+    }
+    for c in charts {
+        let png = std::fs::read(dir.join(format!("{c}.png"))).expect("png");
+        assert!(png.len() > 5000 && png.starts_with(b"\x89PNG"), "{c}.png");
+        let svg = std::fs::read_to_string(dir.join(format!("{c}.svg"))).expect("svg");
+        assert!(svg.contains("<svg") && svg.contains("<text"), "{c}.svg");
+    }
+    assert!(dir.join("summary.md").exists());
+    let _ = std::fs::remove_dir_all(&dir);
+
+    let bad = Command::new(BIN)
+        .arg("--bogus")
+        .output()
+        .expect("chart runs");
+    assert_eq!(bad.status.code(), Some(2));
+}
