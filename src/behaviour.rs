@@ -204,7 +204,7 @@ pub enum FrictionLaw {
     /// rate in m/s or rad/s).
     CoulombTable(Table),
     /// Exponential (Benson-Hallquist): `mu = mu_d + (mu_s - mu_d) exp(-c |V|)` (`EXPn`: TBDATA
-    /// mu_s, mu_d, c in s/m or s/rad).
+    /// `mu_s`, `mu_d`, `c` in s/m or s/rad).
     #[doc(alias = "EXP1")]
     Exponential {
         /// Static coefficient.
@@ -237,7 +237,7 @@ impl FrictionLaw {
 ///
 /// | joint | `v1, v2, v3` | normal force (moment) |
 /// |---|---|---|
-/// | revolute x | R_outer, R_inner, L_eff | `FI + |l1| (Ro + Ri) / 2 + sqrt(l2^2 + l3^2) Ri + 2 Ri sqrt(l5^2 + l6^2) / L` |
+/// | revolute x | `R_outer`, `R_inner`, `L_eff` | `FI + |l1| (Ro + Ri) / 2 + sqrt(l2^2 + l3^2) Ri + 2 Ri sqrt(l5^2 + l6^2) / L` |
 /// | revolute z | same | the same with axial `l3`, radial `l1 l2`, bending `l4 l5` |
 /// | slot | - | `FI + sqrt(l2^2 + l3^2)` |
 /// | translational | L_eff, R_eff | `FI + sqrt(l2^2 + l3^2) + 2 sqrt(l5^2 + l6^2) / L + |l4| / R` |
@@ -247,7 +247,7 @@ impl FrictionLaw {
 /// The revolute formulas are printed in the ANSYS theory text; the slot's is described there in
 /// words; the translational factors (2 / L, 1 / R) are our reading by analogy with the revolute
 /// joint; the spherical expression is our choice among the candidates the text allows (it says
-/// only "the constraint force at radius R_eff"); `|l1|` for the axial term is our reading.
+/// only "the constraint force at radius `R_eff`"); `|l1|` for the axial term is our reading.
 /// Friction is exact stick / slip on the Lagrange backend (a bounded impulse on the free DOF
 /// through the constrained system): the stick stiffness `SKn` and elastic slip `SLn` of
 /// ANSYS's penalty regularisation are accepted and recorded but do not change the result.
@@ -522,7 +522,7 @@ impl Behaviour {
                 .flatten()
                 .any(|x| !(x.is_finite() && *x >= 0.0))
                 || !f.interference.is_finite()
-                || f.max_force.is_some_and(|x| !(x >= 0.0))
+                || f.max_force.is_some_and(|x| x.is_nan() || x < 0.0)
             {
                 return Err((
                     "FRIC",

@@ -32,6 +32,9 @@ use crate::world::{Drive, Mpc184World, frame_pair};
 /// (linear at the centre of mass, angular).
 type EffectFrames = (FramePair, [Option<usize>; 2], [[Vector; 2]; 2]);
 
+/// Per row: the body velocity changes and the joint rows' multiplier changes of a unit impulse.
+type Responses = Vec<(Vec<[Real; 6]>, Vec<Real>)>;
+
 /// Per-joint solver state of the behaviour (not model data).
 #[derive(Clone, Debug, Default)]
 pub(crate) struct EffectState {
@@ -408,7 +411,7 @@ impl Mpc184World {
     fn effects_responses(
         &self,
         rows: &[(RowEval, [Option<usize>; 2])],
-    ) -> Result<Vec<(Vec<[Real; 6]>, Vec<Real>)>, Error> {
+    ) -> Result<Responses, Error> {
         let ls = &self.lagrange;
         let nb = ls.bodies.len();
         let time = self.time;
@@ -790,9 +793,9 @@ impl Mpc184World {
                         continue;
                     }
                     let (dv, dmu) = &responses[a];
-                    for i in 0..nb {
-                        for c in 0..6 {
-                            ls.rhs_b[i][c] += d * dv[i][c];
+                    for (rhs, dvi) in ls.rhs_b.iter_mut().zip(dv).take(nb) {
+                        for (x, y) in rhs.iter_mut().zip(dvi) {
+                            *x += d * y;
                         }
                     }
                     for (r, m) in dmu.iter().enumerate() {

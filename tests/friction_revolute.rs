@@ -7,6 +7,7 @@
 //! - radial load only (gravity -Y, across the axis): breakaway at `mu m g R_i` = 0.11772 N m;
 //! - axial load only (gravity -Z, along the axis): `mu m g (R_o + R_i) / 2` = 0.15696 N m;
 //! - both (gravity at 45 deg between them): the sum of the two with `m g / sqrt 2` each.
+//!
 //! Checked: with `M` 1e-4 below the limit the wheel does not turn (|rotation| <= 1e-12 rad
 //! after 1 s); 1e-4 above it slips and turns by `(M - M_f) t^2 / (2 I)` after 1 s, checked to
 //! 1 % (the first-order start costs `h / t` = 0.4 %), which pins the friction moment to 1e-6

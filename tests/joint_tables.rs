@@ -11,7 +11,7 @@
 //!
 //! Damping table: JND1 through `(-1, -c), (1, c)` is the linear law `f = c v`, so the
 //! logarithmic decrement must equal the analytic `2 pi zeta / sqrt(1 - zeta^2)` (zeta = 0.02)
-//! within 1 % as for the linear DAMP matrix (tests/joint_spring.rs explains the tolerance).
+//! within 1 % as for the linear DAMP matrix (`tests/joint_spring.rs` explains the tolerance).
 #![cfg(feature = "f64")]
 
 use rapier3d_mpc184::math::rapier::prelude::{MassProperties, RigidBodyBuilder};

@@ -1075,7 +1075,7 @@ fn plan_steps(deck: &Deck) -> Result<Vec<StepPlan>, Error> {
 type BuiltJoint = (Mpc184Joint, Option<FrictionData>);
 
 /// The friction model from a joint's friction `TB,JOIN` tables: the law from `MUSn` (TBDATA C1,
-/// or the TBPT table against slip rate when it has points) or `EXPn` (C1..C3 = mu_s, mu_d, c),
+/// or the TBPT table against slip rate when it has points) or `EXPn` (C1..C3 = `mu_s`, `mu_d`, `c`),
 /// `TMXn` C1 the largest friction force, `FIn` C1 the interference fit, `SKn`/`SLn` recorded.
 /// The suffix n must be the joint's friction DOF (1 UX, 4 ROTX, 6 ROTZ).
 fn friction_model(
