@@ -242,7 +242,7 @@ impl FrictionLaw {
 /// | slot | - | `FI + sqrt(l2^2 + l3^2)` |
 /// | translational | L_eff, R_eff | `FI + sqrt(l2^2 + l3^2) + 2 sqrt(l5^2 + l6^2) / L + |l4| / R` |
 /// | spherical | R_eff | `FI + R |l|` (the constraint force at the contact radius) |
-/// | screw (our extension) | r_m (mean thread radius) | the thread's normal force `|l_s| sqrt(1 + p^2 / r_m^2)` from the coupling row's multiplier `l_s`; the friction moment on the screw angle is `mu N (r_m^2 + p^2) / r_m` (square-thread analysis) |
+/// | screw (our extension) | r_m (mean thread radius) | the thread's normal force `|l_s| sqrt(1 + p^2 / r_m^2)` from the coupling row's multiplier `l_s`; the friction acts along the thread (axial force and moment / r_m in the ratio p : r_m), bounded by `mu N (r_m^2 + p^2) / r_m` on the screw angle (square-thread analysis: `tests/friction_screw.rs` reproduces the raise and lower torques) |
 ///
 /// The revolute formulas are printed in the ANSYS theory text; the slot's is described there in
 /// words; the translational factors (2 / L, 1 / R) are our reading by analogy with the revolute

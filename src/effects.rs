@@ -691,8 +691,30 @@ impl Mpc184World {
                 continue;
             };
             let (_, rows) = dof_rows(&f, [e.output.measure[3], e.output.measure[5]]);
-            let frows: Vec<(RowEval, [Option<usize>; 2])> =
+            let mut frows: Vec<(RowEval, [Option<usize>; 2])> =
                 dofs.iter().map(|d| (rows[d.index()], slots)).collect();
+            // The screw's thread friction acts along the helix at the mean radius r, not as a
+            // pure moment: the row `(p J_uz + r^2 J_theta) / (r^2 + p^2)` reads the screw rate
+            // on the constraint manifold and applies (axial force, moment / r) in the ratio
+            // (p, r), tangent to the thread, so that it leaves the thread's normal force alone
+            // (a pure moment would load the thread and change N).
+            if let crate::catalogue::JointKind::Screw { pitch } = kind {
+                let r = fr.geometry[0].unwrap_or(1.0);
+                let l2 = r * r + pitch * pitch;
+                let lin = RowKind::Linear { axis: 2 }.eval(&f);
+                let ang = rows[5];
+                let mix = |a: [Vector; 2], b: [Vector; 2]| {
+                    [
+                        a[0] * (pitch / l2) + b[0] * (r * r / l2),
+                        a[1] * (pitch / l2) + b[1] * (r * r / l2),
+                    ]
+                };
+                frows[0].0 = RowEval {
+                    value: ang.value,
+                    j1: mix(lin.j1, ang.j1),
+                    j2: mix(lin.j2, ang.j2),
+                };
+            }
             let responses = self.effects_responses(&frows)?;
             let n = frows.len();
             if responses.len() != n {
