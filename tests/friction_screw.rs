@@ -7,10 +7,10 @@
 //! it, so the square-thread results must come out:
 //! - torque to raise `T_r = W r (tan l + mu) / (1 - mu tan l)`, to lower `T_l = W r (mu - tan
 //!   l) / (1 + mu tan l)` (mu = 0.3: 0.52181 and 0.09255 N m): a constant moment 1e-3 below
-//!   the threshold leaves the nut at rest (|u_z| <= 1e-9 m after 1 s), 1e-3 above it moves it
+//!   the threshold leaves the nut at rest (`|u_z| <= 1e-9` m after 1 s), 1e-3 above it moves it
 //!   the right way (by more than 1e-7 m);
-//! - self-locking: with `mu = 0.3 > tan l` the nut stays under its load alone (|u_z| <=
-//!   1e-9 m); with `mu = 0.1 < tan l` it runs down.
+//! - self-locking: with `mu = 0.3 > tan l` the nut stays under its load alone (`|u_z| <=
+//!   1e-9` m); with `mu = 0.1 < tan l` it runs down.
 //! The 1e-3 margins bound the thresholds to 1e-3; the three friction passes per substep
 //! converge the coupled normal force (checked: the measured friction moment while stuck equals
 //! the applied one minus W p within 1e-6 relative).
