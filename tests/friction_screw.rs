@@ -11,6 +11,7 @@
 //!   the right way (by more than 1e-7 m);
 //! - self-locking: with `mu = 0.3 > tan l` the nut stays under its load alone (`|u_z| <=
 //!   1e-9` m); with `mu = 0.1 < tan l` it runs down.
+//!
 //! The 1e-3 margins bound the thresholds to 1e-3; the three friction passes per substep
 //! converge the coupled normal force (checked: the measured friction moment while stuck equals
 //! the applied one minus W p within 1e-6 relative).
