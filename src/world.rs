@@ -415,7 +415,18 @@ impl Mpc184World {
                 field,
                 reason,
             })?;
-        if !joint.behaviour.is_empty() && self.settings.backend != Backend::Lagrange {
+        let friction_only = {
+            let mut b = joint.behaviour.clone();
+            let fr = b.friction.take();
+            b.is_empty()
+                && fr.is_some()
+                && crate::behaviour::Friction::dofs(&joint.kind).is_some_and(|d| d.len() == 1)
+                && !matches!(joint.kind, crate::catalogue::JointKind::Screw { .. })
+        };
+        if !joint.behaviour.is_empty()
+            && self.settings.backend != Backend::Lagrange
+            && !friction_only
+        {
             return Err(Error::Unsupported {
                 what: format!(
                     "stops, locks, springs and dampers (SECSTOP, SECLOCK, TB,JOIN) on the {} \
@@ -424,7 +435,9 @@ impl Mpc184World {
                 ),
                 hint: "they run on the Lagrange backend (Backend::Lagrange, the default), with \
                        either constraint method; Rapier's own limits are perfectly plastic and \
-                       its motors see only the body's own inertia"
+                       its motors see only the body's own inertia (on the Rapier backends only \
+                       friction on a revolute, slot or translational joint is approximated, by a \
+                       force-capped velocity motor)"
                     .into(),
             });
         }
@@ -806,6 +819,9 @@ impl Mpc184World {
         }
         let h = self.settings.dt / n as Real;
         self.last_h = h;
+        if self.settings.backend != Backend::Lagrange {
+            self.rapier_friction_motors();
+        }
         self.physics.integration_parameters.dt = h;
         self.physics.integration_parameters.num_solver_iterations = 1;
         if self.settings.backend == Backend::Lagrange {
@@ -844,6 +860,65 @@ impl Mpc184World {
             self.refresh_output(i);
         }
         Ok(())
+    }
+
+    /// Joint friction on the Rapier backends (an approximation): a velocity motor with target
+    /// 0 on the friction axis, force-based, very high damping, its force capped at `mu N` with
+    /// the normal force `N` from the joint's reactions of the previous step (recovered by
+    /// momentum balance) and `mu` at the previous relative rate. Rapier's motor sees only the
+    /// bodies' own inertia and the cap lags a step; `tests/friction_incline.rs` measures the
+    /// difference to the exact stick/slip of the Lagrange backend.
+    fn rapier_friction_motors(&mut self) {
+        use crate::math::rapier::dynamics::{JointAxis, MotorModel};
+        const AXES: [JointAxis; 6] = [
+            JointAxis::LinX,
+            JointAxis::LinY,
+            JointAxis::LinZ,
+            JointAxis::AngX,
+            JointAxis::AngY,
+            JointAxis::AngZ,
+        ];
+        for e in self.joints.iter().flatten() {
+            let Some(fr) = &e.joint.behaviour.friction else {
+                continue;
+            };
+            let Some(&[dof]) = crate::behaviour::Friction::dofs(&e.joint.kind) else {
+                continue;
+            };
+            let o = &e.output;
+            let l = [
+                o.force.x, o.force.y, o.force.z, o.moment.x, o.moment.y, o.moment.z,
+            ];
+            let rate = if dof.is_rotation() {
+                o.angular_velocity[dof.index() - 3]
+            } else {
+                o.velocity[dof.index()]
+            };
+            let mut cap = fr.law.mu(rate) * fr.normal(&e.joint.kind, &l);
+            if let Some(m) = fr.max_force {
+                cap = cap.min(m);
+            }
+            let principal = e.joint.kind.principal_axis();
+            let base = if dof.is_rotation() { 3 } else { 0 };
+            let axis = AXES[base + lower::rapier_axis(dof.axis(), principal)];
+            let data = match e.rapier {
+                RapierJoint::Impulse(h) => self
+                    .physics
+                    .impulse_joints
+                    .get_mut(h, false)
+                    .map(|j| &mut j.data),
+                RapierJoint::Multibody(h) => self
+                    .physics
+                    .multibody_joints
+                    .get_mut(h)
+                    .and_then(|(mb, link)| mb.link_mut(link).map(|l| &mut l.joint.data)),
+            };
+            if let Some(data) = data {
+                data.set_motor_model(axis, MotorModel::ForceBased);
+                data.set_motor_velocity(axis, 0.0, 1e9);
+                data.set_motor_max_force(axis, cap.max(0.0));
+            }
+        }
     }
 
     fn begin_substep(&mut self, record: bool) {
