@@ -116,3 +116,90 @@ fn exponential_law_at_one_over_c() {
     assert!((fr.mu - at).abs() <= 4e-3);
     assert!((fr.mu - expected).abs() <= 0.02);
 }
+
+/// Spherical joint friction (`MUS6`, `SECJOINT,FRIC,R_eff`): the normal moment is `R_eff |F|`
+/// with F the joint force (here the weight: `m g`), so the breakaway moment about any axis is
+/// `mu R_eff m g` (0.05886 N m with R_eff = 0.015 m); with an interference fit `FI6` the normal
+/// moment gains FI; with `TMX6` below that, the friction moment is capped at TMX. Checked as for
+/// the revolute: 1e-4 below the threshold no motion, 1e-4 above it turns.
+#[test]
+fn spherical_breakaway_with_interference_and_cap() {
+    let g = 9.81;
+    let r_eff = 0.015;
+    let run = |moment: Real, fi: Real, tmx: Option<Real>| -> Real {
+        let mut world = Mpc184World::new(WorldSettings::default());
+        let b = world.physics.bodies.insert(
+            RigidBodyBuilder::dynamic()
+                .additional_mass_properties(MassProperties::new(Vector::ZERO, M, Vector::splat(I)))
+                .can_sleep(false),
+        );
+        let mut fr = Friction::coulomb(MU, [Some(r_eff), None, None]);
+        fr.interference = fi;
+        fr.max_force = tmx;
+        let joint = Mpc184Joint::new(JointKind::Spherical, Vector::ZERO).with_friction(fr);
+        let id = world.insert_joint(None, Some(b), joint).unwrap();
+        world
+            .set_load(id, Dof::RotZ, DriveProfile::constant(moment))
+            .unwrap();
+        for _ in 0..60 {
+            world.step().unwrap();
+        }
+        world.output(id).unwrap().rotation.z
+    };
+    let plain = MU * r_eff * M * g;
+    let with_fi = MU * (r_eff * M * g + 0.1);
+    let capped = 0.03;
+    for (name, limit, fi, tmx) in [
+        ("plain", plain, 0.0, None),
+        ("FI 0.1 N m", with_fi, 0.1, None),
+        ("TMX 0.03 N m", capped, 0.0, Some(capped)),
+    ] {
+        let below = run(limit * (1.0 - 1e-4), fi, tmx);
+        let above = run(limit * (1.0 + 1e-4), fi, tmx);
+        println!(
+            "spherical {name}: limit {limit:.6} N m: below {below:.2e} rad, above {above:.3e} rad"
+        );
+        assert!(
+            below.abs() <= 1e-12,
+            "{name}: turned {below:.3e} below the limit"
+        );
+        assert!(
+            above > 1e-6,
+            "{name}: did not turn above the limit: {above:.3e}"
+        );
+    }
+}
+
+/// The penalty method (KEYOPT(2) = 1): the reactions come from the penalty rows' forces, so the
+/// breakaway moment of the radial-load revolute is the same `mu m g R_i` (checked as above).
+#[test]
+fn penalty_revolute_breakaway() {
+    let limit = MU * M * 9.81 * RI;
+    let run = |moment: Real| -> Real {
+        let mut world = Mpc184World::new(WorldSettings::default());
+        let b = world.physics.bodies.insert(
+            RigidBodyBuilder::dynamic()
+                .additional_mass_properties(MassProperties::new(Vector::ZERO, M, Vector::splat(I)))
+                .can_sleep(false),
+        );
+        let joint = Mpc184Joint::revolute(Axis::Z, Vector::ZERO)
+            .with_method(ConstraintMethod::Penalty {
+                disp: 1.0,
+                rot: 1.0,
+            })
+            .with_friction(Friction::coulomb(MU, [Some(RO), Some(RI), None]));
+        let id = world.insert_joint(None, Some(b), joint).unwrap();
+        world
+            .set_load(id, Dof::RotZ, DriveProfile::constant(moment))
+            .unwrap();
+        for _ in 0..60 {
+            world.step().unwrap();
+        }
+        world.output(id).unwrap().rotation.z
+    };
+    let below = run(limit * (1.0 - 1e-4));
+    let above = run(limit * (1.0 + 1e-4));
+    println!("penalty revolute: below {below:.2e} rad, above {above:.3e} rad");
+    assert!(below.abs() <= 1e-12);
+    assert!(above > 1e-6);
+}
