@@ -119,7 +119,7 @@ fn exponential_law_at_one_over_c() {
 
 /// Spherical joint friction (`MUS6`, `SECJOINT,FRIC,R_eff`): the normal moment is `R_eff |F|`
 /// with F the joint force (here the weight: `m g`), so the breakaway moment about any axis is
-/// `mu R_eff m g` (0.05886 N m with R_eff = 0.015 m); with an interference fit `FI6` the normal
+/// `mu R_eff m g` (0.05886 N m with `R_eff` = 0.015 m); with an interference fit `FI6` the normal
 /// moment gains FI; with `TMX6` below that, the friction moment is capped at TMX. Checked as for
 /// the revolute: 1e-4 below the threshold no motion, 1e-4 above it turns.
 #[test]
