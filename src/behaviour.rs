@@ -444,6 +444,27 @@ impl Behaviour {
                 }
             }
         }
+        if matches!(kind, JointKind::Genb { .. }) {
+            let on_rotation = self
+                .stops
+                .iter()
+                .chain(&self.locks)
+                .any(|l| l.dof.is_rotation())
+                || self.stiffness_tables[3..].iter().any(Option::is_some)
+                || self.damping_tables[3..].iter().any(Option::is_some)
+                || [&self.stiffness, &self.damping]
+                    .iter()
+                    .any(|m| m.is_some_and(|m| (3..6).any(|i| (0..6).any(|j| m.get(i, j) != 0.0))));
+            if on_rotation {
+                return Err((
+                    "GENB",
+                    "stops, locks, springs and dampers on a genb joint's rotations (3-1-3 \
+                     Euler angles, singular at the aligned start) are not supported: use a \
+                     general joint (KEYOPT(1) = 16, Bryant angles)"
+                        .into(),
+                ));
+            }
+        }
         for (field, m) in [("STIF", &self.stiffness), ("DAMP", &self.damping)] {
             if let Some(m) = m
                 && m.0.iter().any(|v| !v.is_finite())

@@ -162,7 +162,10 @@ fn lagrange_support(kind: &JointKind) -> Result<(), Error> {
         JointKind::Genb { .. } if locked_rotations == 1 || locked_rotations == 2 => {
             Err(Error::Unsupported {
                 what: "a genb joint locking some but not all of its 3-1-3 Euler angles".into(),
-                hint: "use a general joint (KEYOPT(1) = 16), whose rotation rows are Bryant angles"
+                hint: "the 3-1-3 angles are singular at an aligned start (beta = 0: alpha and \
+                       gamma merge, and holding beta locks two rotations), so a partial lock is \
+                       ill-posed there; use a general joint (KEYOPT(1) = 16), whose rotation \
+                       rows are Bryant angles"
                     .into(),
             })
         }

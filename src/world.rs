@@ -1161,7 +1161,16 @@ impl Mpc184World {
         let a1 = Matrix::from_quat(f1.rotation);
         let a2 = Matrix::from_quat(f2.rotation);
         let u = kinematics::relative_displacement(&a1, f1.translation, f2.translation);
-        let ang = kinematics::bryant_angles(&kinematics::relative_rotation(&a1, &a2));
+        let rel = kinematics::relative_rotation(&a1, &a2);
+        // The genb joint measures its rotations as 3-1-3 Euler angles (alpha about e3, beta
+        // about the intermediate x, gamma about the final z), reported in the ROTX, ROTY, ROTZ
+        // slots in that order (our reading: the text names the angles, not their slots);
+        // every other kind uses Bryant angles.
+        let ang = if matches!(e.joint.kind, crate::catalogue::JointKind::Genb { .. }) {
+            kinematics::euler_313_angles(&rel)
+        } else {
+            kinematics::bryant_angles(&rel)
+        };
         ([u.x, u.y, u.z, ang[0], ang[1], ang[2]], ang)
     }
 
