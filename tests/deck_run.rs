@@ -420,6 +420,98 @@ fn builder_errors_name_the_line_and_command() {
         "{e}"
     );
 
-    let e = build_err(&format!("{HINGE}TIME,1\nDELTIM,0.1\nD,1,UX,0.1\nSOLVE\n"));
-    assert!(e.starts_with("bad.inp:15: D: unsupported"), "{e}");
+    // The set of D labels of a node changes between load steps (UZ, then UZ and UX).
+    let e = build_err(&format!(
+        "{HINGE}TIME,1\nDELTIM,0.1\nD,1,UZ,0\nSOLVE\nTIME,2\nD,1,UX,0\nSOLVE\n"
+    ));
+    assert!(
+        e.starts_with("bad.inp:19: SOLVE: unsupported: nodal constraints (D) on other labels"),
+        "{e}"
+    );
+    assert!(
+        e.contains("node 1: UZ then UX UZ") && e.contains("hint"),
+        "{e}"
+    );
+}
+
+/// Angle of node 2 about +Z from +X (rad), sampled at t = 1 s.
+fn bob_angle_at_1s(deck: &rapier3d_mpc184::deck::Deck) -> f64 {
+    let mut m = DeckModel::build(deck, BuildOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+    let mut angle = None;
+    run(&mut m, |m| {
+        if (m.world.time() - 1.0).abs() < 1e-9 {
+            let (p, _) = m.node_state(2);
+            angle = Some(p.y.atan2(p.x));
+        }
+    });
+    angle.expect("no sample at t = 1 s")
+}
+
+#[test]
+fn partial_d_makes_a_spherical_pendulum_planar_like_the_revolute_one() {
+    // `pendulum_z.inp` with the revolute replaced by a spherical joint (KEYOPT(1) = 15) and the
+    // planar motion enforced on the bob by D,2,UZ,0 and D,2,ROTX,0 / ROTY,0 (a grounded general
+    // joint at node 2 with UX, UY, ROTZ released). The body then has the single DOF of the
+    // revolute pendulum (rotation about global Z through the pivot; UZ of the bob is redundant
+    // with the pivot's UZ once ROTX and ROTY are held) and the same mass and inertia, so it
+    // must swing exactly as the revolute z pendulum: the angle of the bob at 1 s agrees to
+    // 1e-9 rad (the solver's projection tolerance, not an integration error: the discrete
+    // equations are the same).
+    let text = std::fs::read_to_string(asset("pendulum_z.inp")).unwrap();
+    let revolute = parse_str(&text, "pendulum_z.inp").unwrap();
+    let sph = text
+        .replace("ET,1,MPC184,6,,,1 ", "ET,1,MPC184,15      ")
+        .replace("SECTYPE,1,JOINT,REVO", "SECTYPE,1,JOINT,SPHE")
+        .replace("KBC,1\n", "KBC,1\nD,2,UZ,0\nD,2,ROTX,0\nD,2,ROTY,0\n");
+    assert_ne!(sph, text);
+    let spherical = parse_str(&sph, "pendulum_sphe_d.inp").unwrap();
+    let (a_rev, a_sph) = (bob_angle_at_1s(&revolute), bob_angle_at_1s(&spherical));
+    println!(
+        "planar D: angle at 1 s {a_sph:.12} rad (spherical + D) vs {a_rev:.12} (revolute), \
+         difference {:.3e}",
+        (a_sph - a_rev).abs()
+    );
+    assert!((a_sph - a_rev).abs() < 1e-9, "{a_sph} vs {a_rev}");
+}
+
+#[test]
+fn nonzero_d_drives_the_node_along_a_ramp() {
+    // A free 2 kg block (MASS21 with rotary inertia) at (1, 2, 3) under gravity toward -Y, no
+    // joint: D,1,UX,0.1 ramped over 1 s (KBC,0) and the five other labels 0. The grounded
+    // general joint holds UY UZ ROTX ROTY ROTZ and drives UX = 0.1 t exactly (a rheonomic row,
+    // not integrated), so x = 1 + 0.1 t and y, z stay put against gravity; in a second load
+    // step D,1,UX,0.3 stepped (KBC,1) holds x = 1.3 from t = 1 on.
+    let text = "/PREP7
+ET,1,MASS21
+R,1,2,2,2,0.1,0.2,0.3
+N,1,1,2,3
+TYPE,1 $ REAL,1 $ E,1
+FINISH
+/SOLU
+ANTYPE,TRANS
+ACEL,0,9.81,0
+KBC,0
+TIME,1
+DELTIM,0.01
+D,1,UX,0.1
+D,1,UY,0 $ D,1,UZ,0 $ D,1,ROTX,0 $ D,1,ROTY,0 $ D,1,ROTZ,0
+SOLVE
+KBC,1
+TIME,1.5
+D,1,UX,0.3
+SOLVE
+";
+    let deck = parse_str(text, "dblock.inp").unwrap();
+    let mut m = DeckModel::build(&deck, BuildOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+    let (mut worst_x, mut worst_yz): (f64, f64) = (0.0, 0.0);
+    run(&mut m, |m| {
+        let t = m.world.time();
+        let (p, _) = m.node_state(1);
+        let x = if t <= 1.0 + 1e-12 { 1.0 + 0.1 * t } else { 1.3 };
+        worst_x = worst_x.max((p.x - x).abs());
+        worst_yz = worst_yz.max((p.y - 2.0).abs()).max((p.z - 3.0).abs());
+    });
+    println!("nonzero D: largest x error {worst_x:.3e} m, y/z drift {worst_yz:.3e} m");
+    assert!(worst_x < 1e-9, "x error {worst_x}");
+    assert!(worst_yz < 1e-9, "y/z drift {worst_yz}");
 }

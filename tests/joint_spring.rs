@@ -84,7 +84,10 @@ fn undamped_oscillator_keeps_period_and_energy() {
     println!(
         "periods {n}, period error {period_err:.3e}, energy error {e_err:.3e}, balance drift {drift:.3e}"
     );
-    assert!(drift <= 1e-6, "secular drift of the energy balance {drift:.3e}");
+    assert!(
+        drift <= 1e-6,
+        "secular drift of the energy balance {drift:.3e}"
+    );
     assert!(n >= 99, "only {n} periods");
     assert!(period_err <= 1e-4, "period error {period_err:.3e}");
     assert!(e_err <= 1e-4, "energy error {e_err:.3e}");

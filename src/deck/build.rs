@@ -6,7 +6,8 @@
 //! | MPC184 rigid beams (KEYOPT(1) = 1), `CERIG` | nodes tied into one rigid body (union-find) |
 //! | `MASS21` (KEYOPT(3) = 0 or 2) | mass and inertia, summed about the body's centre of mass (parallel axes) |
 //! | a body without mass | fixed if one of its nodes has `D,node,ALL,0`; otherwise an error naming the node |
-//! | `D,node,ALL,0` | the node's body is a Rapier fixed body |
+//! | `D,node,ALL,0` (all six labels 0 in every load step) | the node's body is a Rapier fixed body |
+//! | other `D` (a subset of labels, or nonzero values) | a grounded MPC184 general joint at the node, global axes (ground = I, the node's body = J): the labels held at 0 in every load step are its constraints; a label with a nonzero value in some load step is released and driven ([`Mpc184World::set_drive`], relative to time 0: the node's displacement or Bryant rotation), ramped (`KBC,0`) or stepped (`KBC,1`) from the previous load step's value; the set of labels of a node must stay the same in every load step |
 //! | MPC184 joints (KEYOPT(1) = 6..19) | [`Mpc184Joint`]: kind (KEYOPT(1), (4), `SECJOINT,RDOF`, `PITC`), method (KEYOPT(2), `PNLT`), frames (`SECJOINT,LSYS`), `SECSTOP`, `SECLOCK`, `SECDATA`, `TB,JOIN` STIF DAMP JNS* JND* |
 //! | `TB,JOIN` friction options (MUS*, EXP*, SL*, SK*, TMX*, FI*) with `SECJOINT,FRIC` | [`crate::behaviour::Friction`] on the joint (the raw tables also kept in [`DeckJoint::friction`]); SK/SL are recorded, stick is exact |
 //! | `ACEL` | world gravity = -ACEL |
@@ -17,8 +18,8 @@
 //! | `TIME`, `DELTIM`, `NSUBST`, `KBC` | the time step, the number of output steps, ramped or stepped profiles |
 //!
 //! Everything else is an error that names the deck line (`FILE:LINE: COMMAND: what`): rigid
-//! links (KEYOPT(1) = 0: a distance constraint this crate has no row for), nonzero or partial
-//! `D`, `ANTYPE,STATIC`, initial displacements.
+//! links (KEYOPT(1) = 0: a distance constraint this crate has no row for), `D` whose set of
+//! labels changes between load steps, `ANTYPE,STATIC`, initial displacements.
 //!
 //! Point masses: a body whose MASS21 elements give it no rotary inertia about some axis (point
 //! masses on a line, or a single point mass) gets `1e-6 m r^2` on that axis (`r` the largest
@@ -123,6 +124,15 @@ pub struct StepPlan {
     pub steps: usize,
 }
 
+/// A grounded general joint standing for partial or nonzero `D` on one node.
+#[derive(Clone, Copy, Debug)]
+struct NodalDrive {
+    node: u32,
+    id: JointId,
+    kind: JointKind,
+    driven: DofMask,
+}
+
 #[derive(Clone, Copy, Debug)]
 struct NodalLoad {
     body: usize,
@@ -155,6 +165,8 @@ pub struct DeckModel {
     nodal: Vec<NodalLoad>,
     gravity: [DriveProfile; 3],
     prev_dj: BTreeMap<(u32, DofLabel), (MotionKind, f64)>,
+    d_joints: Vec<NodalDrive>,
+    prev_d: BTreeMap<(u32, Dof), f64>,
     prev_fj: BTreeMap<(u32, DofLabel), f64>,
     prev_f: BTreeMap<(u32, ForceLabel), f64>,
     prev_acel: [f64; 3],
@@ -299,61 +311,60 @@ impl DeckModel {
         let steps = plan_steps(deck)?;
         let first_dt = steps.first().map_or(1.0 / 60.0, |s| s.dt);
 
-        // Nodal constraints: only D,node,ALL,0, the same in every load step.
-        let mut fixed_nodes: BTreeSet<u32> = BTreeSet::new();
+        // Nodal constraints. The set of constrained labels of every node must stay the same in
+        // every load step (values may change). A node with all six labels at 0 in every load
+        // step fixes its body; any other node gets a grounded general joint (built below).
+        let mut d_labels: BTreeMap<u32, (DofMask, usize)> = BTreeMap::new();
+        let mut d_driven: BTreeMap<u32, DofMask> = BTreeMap::new();
         for (k, ls) in deck.load_steps.iter().enumerate() {
-            let mut per_node: BTreeMap<u32, Vec<&crate::deck::model::NodalConstraint>> =
-                BTreeMap::new();
+            let mut now: BTreeMap<u32, (DofMask, usize)> = BTreeMap::new();
             for d in &ls.d {
-                per_node.entry(d.node).or_default().push(d);
-            }
-            let mut fixed = BTreeSet::new();
-            for (node, ds) in &per_node {
-                if let Some(d) = ds.iter().find(|d| d.value != 0.0) {
-                    return Err(unsupported(
-                        deck,
-                        d.line,
-                        "D",
-                        format!(
-                            "a prescribed nonzero nodal displacement (node {node}, {} = {})",
-                            d.dof.label(),
-                            d.value
-                        ),
-                        "drive the motion through a joint with DJ (relative motion), or fix the \
-                         node with D,node,ALL,0",
-                    ));
+                let e = now.entry(d.node).or_insert((DofMask::NONE, d.line));
+                e.0 = e.0.union(DofMask::of(&[dof_of(d.dof)]));
+                e.1 = e.1.min(d.line);
+                if d.value != 0.0 {
+                    let m = d_driven.entry(d.node).or_insert(DofMask::NONE);
+                    *m = m.union(DofMask::of(&[dof_of(d.dof)]));
                 }
-                if ds.len() < 6 {
-                    return Err(unsupported(
-                        deck,
-                        ds[0].line,
-                        "D",
-                        format!(
-                            "a partial nodal constraint (node {node}: {})",
-                            ds.iter()
-                                .map(|d| d.dof.label())
-                                .collect::<Vec<_>>()
-                                .join(" ")
-                        ),
-                        "constrain single directions with a grounded joint (for example a \
-                         grounded slot, planar or translational MPC184), or fix the node with \
-                         D,node,ALL,0",
-                    ));
-                }
-                fixed.insert(*node);
             }
             if k == 0 {
-                fixed_nodes = fixed;
-            } else if fixed != fixed_nodes {
+                d_labels = now;
+            } else if now
+                .iter()
+                .map(|(n, x)| (n, x.0))
+                .ne(d_labels.iter().map(|(n, x)| (n, x.0)))
+            {
+                let node = now
+                    .iter()
+                    .map(|(n, x)| (*n, x.0))
+                    .chain(d_labels.iter().map(|(n, x)| (*n, x.0)))
+                    .find(|(n, m)| {
+                        now.get(n).map(|x| x.0) != Some(*m)
+                            || d_labels.get(n).map(|x| x.0) != Some(*m)
+                    })
+                    .map_or(0, |x| x.0);
+                let show = |m: Option<DofMask>| m.unwrap_or(DofMask::NONE).to_string();
                 return Err(unsupported(
                     deck,
                     ls.line,
                     "SOLVE",
-                    "nodal constraints (D) that change between load steps",
-                    "fix nodes in the first load step and keep them fixed",
+                    format!(
+                        "nodal constraints (D) on other labels than in the first load step \
+                         (node {node}: {} then {})",
+                        show(d_labels.get(&node).map(|x| x.0)),
+                        show(now.get(&node).map(|x| x.0))
+                    ),
+                    "keep the set of constrained labels of every node the same in every load \
+                     step (the values may change: set a value back to 0 rather than deleting \
+                     it with DDELE)",
                 ));
             }
         }
+        let fixed_nodes: BTreeSet<u32> = d_labels
+            .iter()
+            .filter(|(n, (m, _))| *m == DofMask::ALL && !d_driven.contains_key(n))
+            .map(|(n, _)| *n)
+            .collect();
 
         // Rigid groups.
         let mut uf = UnionFind(BTreeMap::new());
@@ -490,6 +501,11 @@ impl DeckModel {
         }
         for ic in &deck.initial_conditions {
             used.entry(ic.node).or_insert((ic.line, "IC"));
+        }
+        for (n, (_, line)) in &d_labels {
+            if !fixed_nodes.contains(n) {
+                used.entry(*n).or_insert((*line, "D"));
+            }
         }
 
         let mut world = Mpc184World::new(WorldSettings {
@@ -668,6 +684,58 @@ impl DeckModel {
             });
         }
 
+        // Partial or nonzero nodal constraints: a grounded general joint at the node, global
+        // axes, body 1 the ground and body 2 the node's body. Labels held at 0 in every load
+        // step are its constraints; labels with a nonzero value in some load step are released
+        // and driven (the drive, relative to time 0, is the node's displacement).
+        let mut d_joints = Vec::new();
+        for (node, (labels, line)) in &d_labels {
+            if fixed_nodes.contains(node) {
+                continue;
+            }
+            let Some((Some(b), _)) = node_body.get(node).copied() else {
+                return Err(invalid(
+                    deck,
+                    *line,
+                    "D",
+                    format!("node {node} is not defined"),
+                ));
+            };
+            let driven = d_driven.get(node).copied().unwrap_or(DofMask::NONE);
+            if bodies[b].fixed {
+                notes.push(format!(
+                    "{}:{line}: D: node {node} is on a fixed body: its constraints ({labels}) \
+                     have no effect",
+                    deck.file
+                ));
+                continue;
+            }
+            let released = labels.complement().union(driven);
+            let kind = JointKind::General {
+                released,
+                translations_only: false,
+            };
+            let joint = Mpc184Joint::new(kind, vec3(deck.nodes[node].position));
+            let id = world
+                .insert_joint(None, Some(bodies[b].handle), joint)
+                .map_err(|x| at_line(deck, *line, "D", x))?;
+            notes.push(format!(
+                "{}:{line}: D: node {node} ({labels}): a grounded general joint, global axes{}",
+                deck.file,
+                if driven == DofMask::NONE {
+                    String::new()
+                } else {
+                    format!("; {driven} released and driven by the D values")
+                }
+            ));
+            d_joints.push(NodalDrive {
+                node: *node,
+                id,
+                kind,
+                driven,
+            });
+        }
+
         // Initial velocities: least-squares rigid velocity per body, unspecified DOFs 0 as in
         // ANSYS.
         let mut ic_bodies: BTreeSet<usize> = BTreeSet::new();
@@ -769,6 +837,8 @@ impl DeckModel {
             nodal: Vec::new(),
             gravity: [zero; 3],
             prev_dj: BTreeMap::new(),
+            d_joints,
+            prev_d: BTreeMap::new(),
             prev_fj: BTreeMap::new(),
             prev_f: BTreeMap::new(),
             prev_acel: [0.0; 3],
@@ -788,14 +858,18 @@ impl DeckModel {
         &self.deck
     }
 
-    /// Degrees of freedom by Grübler's count: 6 per moving body minus the joints' constraint
-    /// equations (redundant constraints make it smaller than the true mobility).
+    /// Degrees of freedom by Grübler's count: 6 per moving body minus the constraint equations
+    /// of the joints and of the general joints standing for partial `D` (drives, `DJ` or a
+    /// nonzero `D`, are not counted; redundant constraints make it smaller than the true
+    /// mobility).
     pub fn dof_count(&self) -> i64 {
         let moving = self.bodies.iter().filter(|b| !b.fixed).count() as i64;
         let constraints: i64 = self
             .joints
             .iter()
-            .map(|j| j.kind.constraint_count() as i64)
+            .map(|j| j.kind)
+            .chain(self.d_joints.iter().map(|d| d.kind))
+            .map(|k| k.constraint_count() as i64)
             .sum();
         6 * moving - constraints
     }
@@ -877,6 +951,23 @@ impl DeckModel {
             }
         }
         self.prev_dj = dj_now;
+        // Nodal drives (nonzero D): ramped or stepped from the previous load step's value.
+        for nd in &self.d_joints {
+            for dof in nd.driven.iter() {
+                let Some(d) =
+                    ls.d.iter()
+                        .rev()
+                        .find(|d| d.node == nd.node && dof_of(d.dof) == dof)
+                else {
+                    continue;
+                };
+                let from = self.prev_d.get(&(nd.node, dof)).copied().unwrap_or(0.0);
+                self.world
+                    .set_drive(nd.id, dof, profile(start, end, from, d.value, kbc))
+                    .map_err(|e| at_line(deck, d.line, "D", e))?;
+                self.prev_d.insert((nd.node, dof), d.value);
+            }
+        }
         // Joint loads.
         let mut fj_now = BTreeMap::new();
         for l in &ls.fj {
