@@ -27,7 +27,7 @@
 //! measured thresholds sit off the model's closed form by -6.0e-4 and +6.0e-4, an offset that
 //! scales with `m p^2 / I` (6.3e-4 here; --mass 5: 6e-5, --mass 500: 6e-3): the stick test sees
 //! a coupling multiplier that still carries the nut's inertial share, not the static `W`.
-//! Self-locking under the load alone: |u_z| = 1e-10 m after 1 s; with mu = tan(l) / 2 the
+//! Self-locking under the load alone: `|u_z|` = 1e-10 m after 1 s; with mu = tan(l) / 2 the
 //! descent acceleration matches the model to 1e-8.
 //!
 //! CSV (`out/screw_jack/`): `screw_jack_bisection.csv` (`search,moment,u_z`: search +1 raise,
