@@ -1,9 +1,10 @@
-//! `cargo run --release --bin joint_bench -- [--quick]`
+//! `cargo run --release --bin joint_bench -- [--quick] [--model]`
 //!
 //! The Lagrange backend side by side with Rapier's impulse and multibody joints on the scenes of
 //! the solver issue (single thread, f64): the 90 deg pendulum, revolute chains of 10, 100 and
 //! 1000 links with end-mass ratios 1:1 and 1:1000, the Bricard mechanism (IFToMM A04) and the
-//! parallelogram four-bar (IFToMM A02, one window). Prints a table per scene; `--quick` skips the
+//! parallelogram four-bar (IFToMM A02, one window), and what parts of a scene that do nothing
+//! cost (inactive stops, a sleeping island). Prints a table per scene; `--quick` skips the
 //! 1000-link chains.
 
 use std::time::Instant;
@@ -22,14 +23,19 @@ fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     if args.iter().any(|a| a == "--help" || a == "-h") {
         println!(
-            "joint_bench: Lagrange backend vs Rapier impulse and multibody joints\n\nOPTIONS:\n    --quick   skip the 1000-link chains\n    --help    this text"
+            "joint_bench: Lagrange backend vs Rapier impulse and multibody joints\n\nOPTIONS:\n    --quick   skip the 1000-link chains\n    --model   only the section on inactive stops and sleeping islands\n    --help    this text"
         );
         return;
     }
     let quick = args.iter().any(|a| a == "--quick");
+    if args.iter().any(|a| a == "--model") {
+        model_cost();
+        return;
+    }
     pendulum();
     penalty();
     chains(quick);
+    model_cost();
     let settings = |backend| WorldSettings {
         dt: 1.0 / 100.0,
         substeps: 4,
@@ -296,5 +302,121 @@ fn mechanism(title: &str, build: impl Fn(Backend) -> Result<Benchmark, Error>, s
             }
             Err(e) => println!("{:<18} {e}", backend.name()),
         }
+    }
+}
+
+/// "Model no more than a scene needs": the per-step cost of the 100-link chain (Lagrange, ratio
+/// 1, released at 20 deg) as built, with an inactive stop on every joint (limits at +-10 rad,
+/// never reached), and with a second 100-link chain hanging at rest beside it whose bodies may
+/// sleep (`can_sleep(true)`), against the same second chain kept awake. Each case runs 3 s
+/// untimed (time for Rapier to put the resting island to sleep), then three 1 s windows are
+/// timed and the fastest is kept (the machine's noise is +-30 %). Measured only: the solver is
+/// not changed here.
+fn model_cost() {
+    use rapier3d_mpc184::math::rapier::prelude::{MassProperties, RigidBodyBuilder};
+    println!(
+        "\n## model no more than a scene needs: 100-link chain, Lagrange, dt 1/60, 4 substeps (best of three 1 s windows after 3 s)"
+    );
+    println!(
+        "{:<44} {:>10} {:>8} {:>14}",
+        "case", "us/step", "ratio", "asleep bodies"
+    );
+    let settings = WorldSettings {
+        dt: 1.0 / 60.0,
+        substeps: 4,
+        backend: Backend::Lagrange,
+    };
+    let build = |stops: bool, resting: Option<bool>| -> Result<Benchmark, Error> {
+        let mut b = benchmarks::chain(settings, 100, 0.1, 0.01, 1.0, 20f64.to_radians() as Real)?;
+        if stops {
+            // Re-insert each joint (time 0: same frames) with a stop far away.
+            for k in 0..b.joints.len() {
+                let [b1, b2] = b.joint_bodies[k];
+                let j = b.world.remove_joint(b.joints[k])?;
+                b.joints[k] = b
+                    .world
+                    .insert_joint(b1, b2, j.with_stop(Dof::RotZ, -10.0, 10.0))?;
+            }
+        }
+        if let Some(can_sleep) = resting {
+            // A second chain hanging straight down at rest 5 m away (in equilibrium).
+            let mut prev = None;
+            for k in 0..100 {
+                let m = 0.01;
+                let bead = b.world.physics.bodies.insert(
+                    RigidBodyBuilder::dynamic()
+                        .translation(Vector::new(5.0, -0.1 * (k + 1) as Real, 0.0))
+                        .additional_mass_properties(MassProperties::new(
+                            Vector::ZERO,
+                            m,
+                            Vector::splat(m * benchmarks::BEAD_GYRATION_SQUARED),
+                        ))
+                        .can_sleep(can_sleep),
+                );
+                let pivot = Vector::new(5.0, -0.1 * k as Real, 0.0);
+                b.world
+                    .insert_joint(prev, Some(bead), Mpc184Joint::revolute(Axis::Z, pivot))?;
+                prev = Some(bead);
+            }
+        }
+        Ok(b)
+    };
+    let cases: [(&str, bool, Option<bool>); 4] = [
+        ("chain as built", false, None),
+        ("+ inactive stop on every joint (+-10 rad)", true, None),
+        (
+            "+ resting 100-link chain, can_sleep(true)",
+            false,
+            Some(true),
+        ),
+        ("+ resting 100-link chain, kept awake", false, Some(false)),
+    ];
+    let mut base = None;
+    for (name, stops, resting) in cases {
+        let mut b = match build(stops, resting) {
+            Ok(b) => b,
+            Err(e) => {
+                println!("{name:<44} {e}");
+                continue;
+            }
+        };
+        let mut failed = None;
+        for _ in 0..180 {
+            if let Err(e) = b.world.step() {
+                failed = Some(e);
+                break;
+            }
+        }
+        let mut best = f64::INFINITY;
+        for _ in 0..3 {
+            if failed.is_some() {
+                break;
+            }
+            let t0 = Instant::now();
+            for _ in 0..60 {
+                if let Err(e) = b.world.step() {
+                    failed = Some(e);
+                    break;
+                }
+            }
+            best = best.min(t0.elapsed().as_secs_f64() * 1e6 / 60.0);
+        }
+        if let Some(e) = failed {
+            println!("{name:<44} failed: {e}");
+            continue;
+        }
+        let asleep = b
+            .world
+            .physics
+            .bodies
+            .iter()
+            .filter(|(_, rb)| rb.is_sleeping())
+            .count();
+        let base_us = *base.get_or_insert(best);
+        let gap = b.max_gap().unwrap_or(Real::NAN);
+        println!(
+            "{name:<44} {best:>10.1} {:>8.3} {asleep:>14}  (gap {gap:.1e} m)",
+            best / base_us
+        );
     }
 }

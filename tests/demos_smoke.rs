@@ -140,6 +140,59 @@ fn heavy_chain_stays_closed_on_lagrange() {
     assert!(rows.iter().all(|r| r[5] <= 1e-9), "gap");
 }
 
+#[test]
+fn screw_jack_self_locks_and_the_free_one_descends() {
+    let dir = temp_out("screw_jack");
+    // mu 0.1 > tan(l) = 0.053 (5 mm lead, 15 mm radius): self-locking; the demo adds mu = tan(l) / 2.
+    let args = ["--mu", "0.1", "--iters", "8"];
+    run(env!("CARGO_BIN_EXE_screw_jack"), &args, &dir);
+    csv(&dir.join("screw_jack_bisection.csv"), "search,moment,u_z");
+    let rows = csv(
+        &dir.join("screw_jack_load.csv"),
+        "mu,t,u_z,rot_z,slipping,friction,normal",
+    );
+    let last = |mu: f64| {
+        rows.iter()
+            .rfind(|r| (r[0] - mu).abs() < 1e-12)
+            .unwrap_or_else(|| panic!("no rows for mu {mu}"))
+            .clone()
+    };
+    let locked = last(0.1);
+    assert!((locked[1] - 1.0).abs() < 1e-9, "t {}", locked[1]);
+    assert!(
+        locked[2].abs() <= 1e-9,
+        "self-locking nut moved {} m",
+        locked[2]
+    );
+    let tan_l = 0.005 / (2.0 * std::f64::consts::PI) / 0.015;
+    let free = last(0.5 * tan_l);
+    assert!(free[2] < -1e-4, "free nut u_z {}", free[2]);
+}
+
+#[test]
+fn door_never_passes_its_stops() {
+    let dir = temp_out("door_hinge");
+    run(env!("CARGO_BIN_EXE_door_hinge"), &["--secs", "2.5"], &dir);
+    let rows = csv(
+        &dir.join("door_hinge.csv"),
+        "t,angle,rate,stops,locks,slipping,friction,normal,kinetic,potential,dissipated,work,balance",
+    );
+    let open = 100f64.to_radians();
+    for r in &rows {
+        assert!(
+            r[1] <= open + 1e-6 && r[1] >= -1e-6,
+            "angle {} at t {}",
+            r[1],
+            r[0]
+        );
+    }
+    // It reaches the wall stop (at 1.8 s with the default push).
+    assert!(
+        rows.iter().any(|r| r[1] > open - 0.05 && r[3] > 0.0),
+        "never hit the wall stop"
+    );
+}
+
 #[cfg(feature = "ecs")]
 #[test]
 fn ecs_demo_despawns_a_joint_and_frees_the_bead() {
