@@ -32,6 +32,9 @@ use crate::world::{Drive, Mpc184World, frame_pair};
 /// (linear at the centre of mass, angular).
 type EffectFrames = (FramePair, [Option<usize>; 2], [[Vector; 2]; 2]);
 
+/// Gap (m or rad) beyond which a limit is far enough for the position stage to skip it.
+const LIMIT_MARGIN: Real = 1e-6;
+
 /// Per row: the body velocity changes and the joint rows' multiplier changes of a unit impulse.
 type Responses = Vec<(Vec<[Real; 6]>, Vec<Real>)>;
 
@@ -269,8 +272,10 @@ impl Mpc184World {
 
     /// Collects the limits predicted active. `level`: velocity (`v` in `rhs_b`, the gap after
     /// `h` predicted from it) or position (the gap now, after the projection).
-    fn effects_active(&self, h: Real, velocity_level: bool, tol: Real) -> Vec<Active> {
+    fn effects_active(&mut self, h: Real, velocity_level: bool, tol: Real) -> Vec<Active> {
         let mut out = Vec::new();
+        // The smallest gap now or predicted after the substep (velocity level).
+        let mut near = Real::INFINITY;
         for j in 0..self.joints.len() {
             let Some(e) = &self.joints[j] else { continue };
             let b = &e.joint.behaviour;
@@ -349,6 +354,9 @@ impl Mpc184World {
                     }
                     let gap = side * (m[k] - limit);
                     let g_rate = side * rate;
+                    if velocity_level {
+                        near = near.min(gap).min(gap + h * g_rate);
+                    }
                     let (change, dissipative) = if velocity_level {
                         if gap + h * g_rate >= 0.0 || g_rate >= 0.0 && gap >= 0.0 {
                             continue;
@@ -397,6 +405,16 @@ impl Mpc184World {
                     let _ = is_lock;
                 }
             }
+        }
+        if velocity_level {
+            // Far from every limit (by more than the projection can move a DOF) and nothing
+            // pending: the position stage has nothing to do this substep.
+            let pending = self
+                .joints
+                .iter()
+                .flatten()
+                .any(|e| !e.effects.pending.is_empty());
+            self.lagrange.limits_clear = out.is_empty() && !pending && near > LIMIT_MARGIN;
         }
         out
     }
@@ -604,6 +622,9 @@ impl Mpc184World {
     /// `tol` are projected back; locks engaged this step are held at their values until their
     /// row joins at the next step.
     pub(crate) fn effects_limits_position(&mut self, h: Real, tol: Real) -> Result<(), Error> {
+        if self.lagrange.limits_clear {
+            return Ok(());
+        }
         let mut active = self.effects_active(h, false, tol);
         // Locked DOFs whose row is still pending: hold them at their value (both sides).
         for j in 0..self.joints.len() {

@@ -157,6 +157,8 @@ pub(crate) struct LagrangeState {
     shift: Vec<[Real; 6]>,
     saved: Vec<(Real, Vector, Vector)>,
     pub(crate) diagnostics: LagrangeDiagnostics,
+    /// The velocity-level limit stage found every limit far away (the position stage skips).
+    pub(crate) limits_clear: bool,
     warned_redundant: bool,
     warned_projection: bool,
 }
