@@ -159,11 +159,18 @@ pub(crate) struct LagrangeState {
     pub(crate) diagnostics: LagrangeDiagnostics,
     /// The velocity-level limit stage found every limit far away (the position stage skips).
     pub(crate) limits_clear: bool,
+    /// Per joint, asleep when the topology was built (asleep joints have no rows).
+    asleep: Vec<bool>,
     warned_redundant: bool,
     warned_projection: bool,
 }
 
 impl LagrangeState {
+    /// Joint `j` had all its bodies asleep at the last topology build (it has no rows).
+    pub(crate) fn is_asleep(&self, j: usize) -> bool {
+        self.asleep.get(j).copied().unwrap_or(false)
+    }
+
     /// The row range of world joint `j` in the current block layout, if it has rows.
     pub(crate) fn rows_of(&self, j: usize) -> Option<core::ops::Range<usize>> {
         let kkt = self.kkt.as_ref()?;
@@ -212,8 +219,14 @@ impl Mpc184World {
         let mut index = HashMap::new();
         let mut specs = Vec::new();
         let mut blocks = Vec::new();
+        let asleep = self.lagrange_asleep();
         for (j, e) in self.joints.iter().enumerate() {
             let Some(e) = e else { continue };
+            // A joint whose island sleeps costs nothing: no rows, no bodies (Rapier keeps the
+            // island asleep; it wakes as a whole, and the next step rebuilds with it).
+            if asleep.get(j).copied().unwrap_or(false) {
+                continue;
+            }
             let mut slot = |b: RigidBodyHandle| -> Option<usize> {
                 if !self.physics.bodies[b].is_dynamic() {
                     return None;
@@ -274,9 +287,29 @@ impl Mpc184World {
             ls.block_of[j] = Some(k);
         }
         ls.blocks = blocks;
+        ls.asleep = asleep;
         ls.kkt = Some(kkt);
         ls.dirty = false;
         Ok(())
+    }
+
+    /// Per joint: every dynamic body it connects is asleep in Rapier (and it has at least one).
+    fn lagrange_asleep(&self) -> Vec<bool> {
+        self.joints
+            .iter()
+            .map(|e| {
+                e.as_ref().is_some_and(|e| {
+                    let dynamic: Vec<_> = [e.body1, e.body2]
+                        .into_iter()
+                        .filter(|b| self.physics.bodies[*b].is_dynamic())
+                        .collect();
+                    !dynamic.is_empty()
+                        && dynamic
+                            .iter()
+                            .all(|b| self.physics.bodies[*b].is_sleeping())
+                })
+            })
+            .collect()
     }
 
     /// Reads pose, mass and velocity of every jointed body from Rapier.
@@ -890,7 +923,9 @@ impl Mpc184World {
     pub(crate) fn lagrange_step(&mut self, h: Real, n: usize) -> Result<(), Error> {
         self.effects_apply_pending_locks();
         self.effects_begin_step();
+        let sleep_changed = self.lagrange_asleep() != self.lagrange.asleep;
         let rebuilt = self.lagrange.dirty
+            || sleep_changed
             || self.lagrange.kkt.is_none()
             || self.lagrange.colliders != self.physics.colliders.len();
         if rebuilt {

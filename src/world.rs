@@ -1120,6 +1120,10 @@ impl Mpc184World {
         let h = self.last_h;
         for (ji, e) in self.joints.iter_mut().enumerate() {
             let Some(e) = e else { continue };
+            // An asleep island keeps the reactions it had when it fell asleep.
+            if self.lagrange.is_asleep(ji) {
+                continue;
+            }
             let (mut f, mut tau) = (Vector::ZERO, Vector::ZERO);
             if let Some(rows) = self.lagrange.rows_of(ji) {
                 let pose1 = *self.physics.bodies[e.body1].position();
