@@ -40,26 +40,14 @@ OPTIONS:
 /// Probe speed (m/s) under which the mechanism counts as stopped.
 const STOPPED: Real = 1e-3;
 
-struct Opts {
-    backends: Vec<Backend>,
-    dt: Real,
-    substeps: usize,
-    secs: Real,
-    out: std::path::PathBuf,
-}
+type Opts = common::Sweep;
 
 fn main() -> ExitCode {
     common::main("bricard", HELP, parse, run)
 }
 
 fn parse(a: &mut Args) -> Result<Opts, String> {
-    Ok(Opts {
-        backends: a.backends("all")?,
-        dt: a.real("dt", 1.0 / 100.0)?,
-        substeps: a.count("substeps", 4, 1)?,
-        secs: a.real("secs", 10.0)?,
-        out: a.out_dir(),
-    })
+    a.sweep("all", 1.0 / 100.0, 10.0)
 }
 
 fn run(o: Opts) -> RunResult {

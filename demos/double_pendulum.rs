@@ -49,26 +49,14 @@ OPTIONS:
 const M: Real = 1.0;
 const L: Real = 1.0;
 
-struct Opts {
-    backends: Vec<Backend>,
-    dt: Real,
-    substeps: usize,
-    secs: Real,
-    out: std::path::PathBuf,
-}
+type Opts = common::Sweep;
 
 fn main() -> ExitCode {
     common::main("double_pendulum", HELP, parse, run)
 }
 
 fn parse(a: &mut Args) -> Result<Opts, String> {
-    Ok(Opts {
-        backends: a.backends("lagrange")?,
-        dt: a.real("dt", 1.0 / 60.0)?,
-        substeps: a.count("substeps", 4, 1)?,
-        secs: a.real("secs", 10.0)?,
-        out: a.out_dir(),
-    })
+    a.sweep("lagrange", 1.0 / 60.0, 10.0)
 }
 
 fn build(backend: Backend, dt: Real, substeps: usize) -> Result<Benchmark, Error> {

@@ -39,13 +39,7 @@ OPTIONS:
     --out DIR        CSV directory (default out/four_bar)
     --help           this text";
 
-struct Opts {
-    backends: Vec<Backend>,
-    dt: Real,
-    substeps: usize,
-    secs: Real,
-    out: std::path::PathBuf,
-}
+type Opts = common::Sweep;
 
 /// Figures of one crank turn.
 #[derive(Clone, Copy)]
@@ -61,13 +55,7 @@ fn main() -> ExitCode {
 }
 
 fn parse(a: &mut Args) -> Result<Opts, String> {
-    Ok(Opts {
-        backends: a.backends("all")?,
-        dt: a.real("dt", 1.0 / 60.0)?,
-        substeps: a.count("substeps", 4, 1)?,
-        secs: a.real("secs", 10.0)?,
-        out: a.out_dir(),
-    })
+    a.sweep("all", 1.0 / 60.0, 10.0)
 }
 
 fn run(o: Opts) -> RunResult {

@@ -32,6 +32,11 @@ use crate::world::{Drive, Mpc184World, frame_pair};
 /// (linear at the centre of mass, angular).
 type EffectFrames = (FramePair, [Option<usize>; 2], [[Vector; 2]; 2]);
 
+/// A row's rate `J1 (v1, w1) + J2 (v2, w2)` for the two sides' velocities.
+fn row_rate(row: &RowEval, v1: [Vector; 2], v2: [Vector; 2]) -> Real {
+    row.j1[0].dot(v1[0]) + row.j1[1].dot(v1[1]) + row.j2[0].dot(v2[0]) + row.j2[1].dot(v2[1])
+}
+
 /// Gap (m or rad) beyond which a limit is far enough for the position stage to skip it.
 const LIMIT_MARGIN: Real = 1e-6;
 
@@ -191,12 +196,7 @@ impl Mpc184World {
             let free = e.joint.kind.free();
             let reference = [e.output.measure[3], e.output.measure[5]];
             let (m, rows) = dof_rows(&f, reference);
-            let rate: [Real; 6] = core::array::from_fn(|k| {
-                rows[k].j1[0].dot(vel[0][0])
-                    + rows[k].j1[1].dot(vel[0][1])
-                    + rows[k].j2[0].dot(vel[1][0])
-                    + rows[k].j2[1].dot(vel[1][1])
-            });
+            let rate: [Real; 6] = core::array::from_fn(|k| row_rate(&rows[k], vel[0], vel[1]));
             let x: [Real; 6] =
                 core::array::from_fn(|k| m[k] - b.reference[k].unwrap_or(e.initial[k]));
             let mut spring = [0.0; 6];
@@ -304,10 +304,7 @@ impl Mpc184World {
                 for &(dof, value) in &e.effects.pending {
                     let k = dof.index();
                     let row = rows[k];
-                    let rate = row.j1[0].dot(v1[0])
-                        + row.j1[1].dot(v1[1])
-                        + row.j2[0].dot(v2[0])
-                        + row.j2[1].dot(v2[1]);
+                    let rate = row_rate(&row, v1, v2);
                     let target = -(m[k] - value) / h;
                     let side: Real = if rate > target { -1.0 } else { 1.0 };
                     out.push(Active {
@@ -339,15 +336,9 @@ impl Mpc184World {
                     continue;
                 }
                 let row = rows[k];
-                let rate = row.j1[0].dot(v1[0])
-                    + row.j1[1].dot(v1[1])
-                    + row.j2[0].dot(v2[0])
-                    + row.j2[1].dot(v2[1]);
+                let rate = row_rate(&row, v1, v2);
                 // The rate at the start of the substep, before this substep's forces.
-                let rate_n = row.j1[0].dot(vel[0][0])
-                    + row.j1[1].dot(vel[0][1])
-                    + row.j2[0].dot(vel[1][0])
-                    + row.j2[1].dot(vel[1][1]);
+                let rate_n = row_rate(&row, vel[0], vel[1]);
                 for (side, limit) in [(1.0 as Real, l.min), (-1.0, l.max)] {
                     if !limit.is_finite() {
                         continue;

@@ -16,6 +16,20 @@ use rapier3d_mpc184::prelude::{Backend, Real};
 /// Result of a demo's run.
 pub type RunResult = Result<(), Box<dyn Error>>;
 
+/// The options of a demo that runs one scene on some backends for some time.
+pub struct Sweep {
+    /// Backends to run.
+    pub backends: Vec<Backend>,
+    /// Step (s).
+    pub dt: Real,
+    /// Substeps per step.
+    pub substeps: usize,
+    /// Simulated time (s).
+    pub secs: Real,
+    /// CSV directory.
+    pub out: PathBuf,
+}
+
 /// Parsed `--key value` pairs; each getter takes its key out, [`Args::finish`] rejects the rest.
 pub struct Args {
     demo: &'static str,
@@ -108,6 +122,18 @@ impl Args {
         self.values
             .remove("out")
             .map_or_else(|| Path::new("out").join(self.demo), PathBuf::from)
+    }
+
+    /// The common sweep options: `--backend` (default `backend`), `--dt` (default `dt`),
+    /// `--substeps` (default 4), `--secs` (default `secs`), `--out`.
+    pub fn sweep(&mut self, backend: &str, dt: Real, secs: Real) -> Result<Sweep, String> {
+        Ok(Sweep {
+            backends: self.backends(backend)?,
+            dt: self.real("dt", dt)?,
+            substeps: self.count("substeps", 4, 1)?,
+            secs: self.real("secs", secs)?,
+            out: self.out_dir(),
+        })
     }
 
     /// Rejects the options no getter took.
