@@ -35,6 +35,7 @@ fn settings(backend: Backend) -> WorldSettings {
         dt: 1.0 / 60.0,
         substeps: 4,
         backend,
+        ..Default::default()
     }
 }
 

@@ -61,6 +61,7 @@ fn run(o: Opts) -> RunResult {
             dt: o.dt,
             substeps: o.substeps,
             backend,
+            ..Default::default()
         };
         println!("\n## {}", backend.name());
         let mut b = match benchmarks::bricard(settings) {

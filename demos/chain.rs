@@ -73,6 +73,7 @@ fn run(o: Opts) -> RunResult {
             dt: o.dt,
             substeps: o.substeps,
             backend,
+            ..Default::default()
         };
         let built = benchmarks::chain(
             settings,

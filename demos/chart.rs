@@ -330,6 +330,7 @@ fn settings(method: Method, dt: f64, substeps: usize) -> WorldSettings {
         dt: dt as Real,
         substeps,
         backend: method.backend(),
+        ..Default::default()
     }
 }
 

@@ -64,6 +64,7 @@ fn build(backend: Backend, dt: Real, substeps: usize) -> Result<Benchmark, Error
         dt,
         substeps,
         backend,
+        ..Default::default()
     };
     benchmarks::chain(settings, 2, L, M, 1.0, 0.5 * PI)
 }

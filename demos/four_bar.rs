@@ -70,6 +70,7 @@ fn run(o: Opts) -> RunResult {
             dt: o.dt,
             substeps: o.substeps,
             backend,
+            ..Default::default()
         };
         let mut b = match benchmarks::four_bar_parallelogram(settings) {
             Ok(b) => b,

@@ -40,6 +40,7 @@ fn main() {
         dt: 1.0 / 100.0,
         substeps: 4,
         backend,
+        ..Default::default()
     };
     mechanism(
         "Bricard (A04), dt 1/100, 4 substeps, 10 s",
@@ -50,6 +51,7 @@ fn main() {
         dt: 1.0 / 60.0,
         substeps: 4,
         backend,
+        ..Default::default()
     };
     mechanism(
         "parallelogram four-bar (A02, one window), dt 1/60, 4 substeps, 10 s",
@@ -237,6 +239,7 @@ fn chains(quick: bool) {
                     dt: 1.0 / 60.0,
                     substeps: 4,
                     backend,
+                    ..Default::default()
                 };
                 let secs = if n >= 1000 { 2.0 } else { 10.0 };
                 match benchmarks::chain(settings, n, 0.1, 0.01, ratio, 20f64.to_radians() as Real) {
@@ -256,6 +259,7 @@ fn chains(quick: bool) {
                 dt: 1.0 / 60.0,
                 substeps: 4,
                 backend: Backend::RapierImpulse,
+                ..Default::default()
             };
             if let Ok(mut b) =
                 benchmarks::chain(settings, n, 0.1, 0.01, ratio, 20f64.to_radians() as Real)
@@ -325,6 +329,7 @@ fn model_cost() {
         dt: 1.0 / 60.0,
         substeps: 4,
         backend: Backend::Lagrange,
+        ..Default::default()
     };
     let build = |stops: bool, resting: Option<bool>| -> Result<Benchmark, Error> {
         let mut b = benchmarks::chain(settings, 100, 0.1, 0.01, 1.0, 20f64.to_radians() as Real)?;

@@ -76,6 +76,7 @@ fn run(
         dt: 1.0 / 60.0,
         substeps: 4,
         backend,
+        ..Default::default()
     };
     let mut p = scenes::pendulum(settings, Axis::Z, 1.0, theta0, 1.0, 1e-4)?;
     if let Some(dir) = std::path::Path::new(csv).parent() {

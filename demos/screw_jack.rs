@@ -114,6 +114,7 @@ fn jack(
         dt: 1.0 / 60.0,
         substeps: 4,
         backend: Backend::Lagrange,
+        ..Default::default()
     };
     let mut world = Mpc184World::new(settings);
     let nut = world.physics.bodies.insert(

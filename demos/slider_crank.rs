@@ -105,6 +105,7 @@ fn run(o: Opts) -> RunResult {
                 dt: o.dt,
                 substeps: o.substeps,
                 backend,
+                ..Default::default()
             };
             println!("\n## {mode}, {}", backend.name());
             let built = benchmarks::slider_crank_with(settings, o.rod_slider).and_then(|mut b| {

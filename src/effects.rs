@@ -63,6 +63,8 @@ pub(crate) struct EffectState {
     pub(crate) spring_energy: Real,
     /// Friction state of the last substep.
     pub(crate) friction: Option<FrictionState>,
+    /// Stops that reflected elastically in the current substep (DOF, side: +1 lower, -1 upper).
+    bounced: Vec<(Dof, Real)>,
 }
 
 /// The friction state of a joint in the last substep.
@@ -573,6 +575,9 @@ impl Mpc184World {
             }
             let impulse = if velocity_level { p[a] } else { p[a] / h };
             if let Some(e) = &mut self.joints[act.joint] {
+                if velocity_level && !act.dissipative {
+                    e.effects.bounced.push((act.dof, act.side));
+                }
                 e.effects.at_stop[act.dof.index()] = true;
                 let (f, t) = &mut e.effects.on_body2;
                 *f += act.row.j2[0] * (impulse / h);
@@ -872,6 +877,120 @@ impl Mpc184World {
         Ok(())
     }
 
+    /// Some joint has an elastic stop (Lagrange method, not a screw).
+    pub(crate) fn effects_has_elastic_stops(&self) -> bool {
+        self.joints.iter().flatten().any(|e| {
+            !e.joint.behaviour.stops.is_empty()
+                && !matches!(e.joint.method, ConstraintMethod::Penalty { .. })
+                && !matches!(e.joint.kind, crate::catalogue::JointKind::Screw { .. })
+        })
+    }
+
+    /// Elastic energy of the joint springs at their last evaluation (J).
+    pub(crate) fn effects_spring_energy(&self) -> Real {
+        self.joints
+            .iter()
+            .flatten()
+            .map(|e| e.effects.spring_energy)
+            .sum()
+    }
+
+    /// The energy-consistent impact of the second-order step (the velocity update of Laursen
+    /// and Love, 2002): after a substep in which a stop reflected, the post-impact rate along
+    /// that stop is set so that kinetic + potential + spring energy at the substep's end equals
+    /// the energy it started with plus the work booked in it (loads, drives) minus what was
+    /// dissipated (dampers, friction, plastic landings). The impulse acts along the stop's row
+    /// through the constrained system (the joints' velocity constraints hold and the momentum
+    /// changes only as the joint reactions allow). Where no separating rate reaches the energy
+    /// (the reflection left less kinetic energy along the stop than must go), the rate is set to
+    /// zero and the rest booked as dissipated.
+    pub(crate) fn effects_energy_fix(
+        &mut self,
+        h: Real,
+        start: Real,
+        ledger0: EnergyLedger,
+    ) -> Result<(), Error> {
+        let Some((j, dof, side)) = self.joints.iter().enumerate().find_map(|(j, e)| {
+            e.as_ref()
+                .and_then(|e| e.effects.bounced.first().map(|&(d, s)| (j, d, s)))
+        }) else {
+            return Ok(());
+        };
+        let Some((f, slots, vel)) = self.effect_frames(j) else {
+            return Ok(());
+        };
+        let Some(e) = &self.joints[j] else {
+            return Ok(());
+        };
+        let (_, rows) = dof_rows(&f, [e.output.measure[3], e.output.measure[5]]);
+        let row = rows[dof.index()];
+        let signed = RowEval {
+            value: 0.0,
+            j1: [row.j1[0] * side, row.j1[1] * side],
+            j2: [row.j2[0] * side, row.j2[1] * side],
+        };
+        let responses = self.effects_responses(&[(signed, slots)])?;
+        let Some((dv, dmu)) = responses.first() else {
+            return Ok(());
+        };
+        let now = self.lagrange_body_energy() + self.effects_spring_energy();
+        let expected = start + (self.ledger.work - ledger0.work)
+            - (self.ledger.dissipated - ledger0.dissipated);
+        let ls = &self.lagrange;
+        // Kinetic energy along the response: KE(v + p u) = KE(v) + a1 p + a2 p^2, with the
+        // bodies' true inertia.
+        let (mut a1, mut a2) = (0.0, 0.0);
+        for (s, d) in ls.st.iter().zip(dv) {
+            let du = Vector::new(d[0], d[1], d[2]);
+            let dw = Vector::new(d[3], d[4], d[5]);
+            a1 += s.mass * s.linvel.dot(du) + s.angvel.dot(s.inertia * dw);
+            a2 += 0.5 * (s.mass * du.length_squared() + dw.dot(s.inertia * dw));
+        }
+        if a2 <= 0.0 || !now.is_finite() || !expected.is_finite() {
+            return Ok(());
+        }
+        let g = row_rate(&signed, vel[0], vel[1]);
+        let mut w = 0.0;
+        for (slot, jb) in [(slots[0], signed.j1), (slots[1], signed.j2)] {
+            if let Some(i) = slot {
+                let d = dv[i];
+                w += jb[0].dot(Vector::new(d[0], d[1], d[2]))
+                    + jb[1].dot(Vector::new(d[3], d[4], d[5]));
+            }
+        }
+        let c = now - expected;
+        let disc = a1 * a1 - 4.0 * a2 * c;
+        let mut p = if disc >= 0.0 {
+            (-a1 + disc.sqrt()) / (2.0 * a2)
+        } else {
+            -a1 / (2.0 * a2)
+        };
+        // Never leave the stop approaching it again.
+        if w > 0.0 && g + p * w < 0.0 {
+            p = -g / w;
+        }
+        if !p.is_finite() || p == 0.0 {
+            return Ok(());
+        }
+        let ls = &mut self.lagrange;
+        for (s, d) in ls.st.iter_mut().zip(dv) {
+            s.linvel += Vector::new(d[0], d[1], d[2]) * p;
+            s.angvel += Vector::new(d[3], d[4], d[5]) * p;
+        }
+        for (r, m) in dmu.iter().enumerate() {
+            ls.impulse[r] -= p * m;
+        }
+        let after = self.lagrange_body_energy() + self.effects_spring_energy();
+        // What could not be kept (clamped cases only; round-off otherwise).
+        self.ledger.dissipated += expected - after;
+        if let Some(e) = &mut self.joints[j] {
+            let (f2, t2) = &mut e.effects.on_body2;
+            *f2 += signed.j2[0] * (p / h);
+            *t2 += signed.j2[1] * (p / h);
+        }
+        Ok(())
+    }
+
     /// Books the work of the prescribed motions (DJ) over the substep just taken: each drive
     /// row's impulse times its prescribed rate (`lambda . J v` with `J v` = the rate).
     pub(crate) fn effects_book_drive_work(&mut self) {
@@ -906,6 +1025,7 @@ impl Mpc184World {
     pub(crate) fn effects_begin_substep(&mut self) {
         for e in self.joints.iter_mut().flatten() {
             e.effects.on_body2 = (Vector::ZERO, Vector::ZERO);
+            e.effects.bounced.clear();
         }
     }
 

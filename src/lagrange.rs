@@ -101,6 +101,12 @@ pub struct LagrangeDiagnostics {
     pub projection_iterations: usize,
     /// Bodies that received added (geometric-stiffness) inertia in the last substep.
     pub stiffened_bodies: usize,
+    /// Bodies integrated by the first-order step in the last step although the world asked for
+    /// [`Integrator::Rattle`](crate::world::Integrator::Rattle): their island had an active
+    /// contact.
+    pub first_order_bodies: usize,
+    /// Steps so far in which some island fell back to the first-order step (contacts).
+    pub first_order_steps: usize,
     /// Warnings issued once (redundant constraints, unconverged projections).
     pub warnings: Vec<String>,
 }
@@ -161,8 +167,14 @@ pub(crate) struct LagrangeState {
     pub(crate) limits_clear: bool,
     /// Per joint, asleep when the topology was built (asleep joints have no rows).
     asleep: Vec<bool>,
+    /// Per body: integrated by the second-order (RATTLE) step in the current step (the world
+    /// asks for it and the body's island has no active contact).
+    pub(crate) second: Vec<bool>,
+    /// Some body is integrated by the second-order step in the current step.
+    pub(crate) second_any: bool,
     warned_redundant: bool,
     warned_projection: bool,
+    warned_fallback: bool,
 }
 
 impl LagrangeState {
@@ -310,6 +322,94 @@ impl Mpc184World {
                 })
             })
             .collect()
+    }
+
+    /// Picks the integrator of each body for this step: the world's, except that an island
+    /// (bodies connected by joints) with an active contact takes the first-order step.
+    fn lagrange_choose_order(&mut self) {
+        let nb = self.lagrange.bodies.len();
+        let rattle = self.settings().integrator == crate::world::Integrator::Rattle;
+        let ls = &mut self.lagrange;
+        ls.second.clear();
+        ls.second.resize(nb, rattle);
+        ls.second_any = rattle && nb > 0;
+        ls.diagnostics.first_order_bodies = 0;
+        if !rattle {
+            return;
+        }
+        let mut touched = Vec::new();
+        for pair in self.physics.contact_pairs() {
+            if !pair.has_any_active_contact() {
+                continue;
+            }
+            for c in [pair.collider1, pair.collider2] {
+                if let Some(&i) = self
+                    .physics
+                    .colliders
+                    .get(c)
+                    .and_then(|col| col.parent())
+                    .and_then(|b| ls.index.get(&b))
+                {
+                    touched.push(i);
+                }
+            }
+        }
+        if touched.is_empty() {
+            return;
+        }
+        // Islands by union-find over the joint blocks.
+        let mut parent: Vec<usize> = (0..nb).collect();
+        fn root(p: &mut [usize], mut i: usize) -> usize {
+            while p[i] != i {
+                p[i] = p[p[i]];
+                i = p[i];
+            }
+            i
+        }
+        if let Some(kkt) = ls.kkt.as_ref() {
+            for spec in kkt.joint_specs() {
+                if let [Some(a), Some(b)] = spec.bodies {
+                    let (ra, rb) = (root(&mut parent, a), root(&mut parent, b));
+                    parent[ra] = rb;
+                }
+            }
+        }
+        let mut contact_root = vec![false; nb];
+        for i in touched {
+            let r = root(&mut parent, i);
+            contact_root[r] = true;
+        }
+        let mut fallback = 0;
+        for i in 0..nb {
+            if contact_root[root(&mut parent, i)] {
+                ls.second[i] = false;
+                fallback += 1;
+            }
+        }
+        ls.second_any = ls.second.iter().any(|x| *x);
+        ls.diagnostics.first_order_bodies = fallback;
+        ls.diagnostics.first_order_steps += 1;
+        if !ls.warned_fallback {
+            ls.warned_fallback = true;
+            ls.diagnostics.warnings.push(format!(
+                "t = {}: {fallback} bod(ies) in islands with an active contact take the \
+                 first-order step while the contact lasts (second order needs smooth forces)",
+                self.time
+            ));
+        }
+    }
+
+    /// Kinetic energy of the solver's bodies plus the potential of their constant forces
+    /// (gravity and user forces: `-f . c`), at the current body states (J).
+    pub(crate) fn lagrange_body_energy(&self) -> Real {
+        self.lagrange
+            .st
+            .iter()
+            .map(|s| {
+                0.5 * s.mass * s.linvel.length_squared() + 0.5 * s.angvel.dot(s.inertia * s.angvel)
+                    - s.force.dot(s.com)
+            })
+            .sum()
     }
 
     /// Reads pose, mass and velocity of every jointed body from Rapier.
@@ -585,19 +685,17 @@ impl Mpc184World {
             let ls = &mut self.lagrange;
             for i in 0..nb {
                 let s = &ls.st[i];
-                let v = s.linvel + s.force * (h / s.mass);
+                // First order: the whole kick now. Second order (RATTLE): half now with the
+                // forces at q_n, half at the end with the forces at q_(n+1).
+                let ha = if ls.second[i] { 0.5 * h } else { h };
+                let v = s.linvel + s.force * (ha / s.mass);
                 // Gyroscopic term by the implicit midpoint rule, `w_g = w - h I^-1 (w_m x I
                 // w_m)` with `w_m = (w + w_g) / 2` (fixed-point iterations, contracting for
                 // `h |w| < 1`): it keeps the rotational energy and the angular momentum of a
                 // free body exactly, where the explicit `-w x I w` gains energy every step
                 // (measured: the IFToMM slider-crank gained 7 % of its energy scale per second
                 // at h = 1/240 s).
-                let mut wg = s.angvel;
-                for _ in 0..GYRO_ITERATIONS {
-                    let wm = 0.5 * (s.angvel + wg);
-                    wg = s.angvel - s.inertia_inv * wm.cross(s.inertia * wm) * h;
-                }
-                let w = wg + s.inertia_inv * s.torque * h;
+                let w = gyroscopic_kick(s, s.angvel, ha) + s.inertia_inv * s.torque * ha;
                 let mw = s.inertia * w + w * s.added;
                 let mv = v * s.mass;
                 ls.rhs_b[i] = [mv.x, mv.y, mv.z, mw.x, mw.y, mw.z];
@@ -608,9 +706,21 @@ impl Mpc184World {
             }
         }
         let effects = self.effects_any();
+        // Energy-consistent stops of the second-order step need the energy the substep starts
+        // with (kinetic + potential of constant forces here, springs after the first kick).
+        let energy_fix = effects && self.lagrange.second_any && self.effects_has_elastic_stops();
+        let mut start_energy = if energy_fix {
+            self.lagrange_body_energy()
+        } else {
+            0.0
+        };
+        let start_ledger = self.ledger;
         if effects {
             self.effects_begin_substep();
             self.effects_kick(0.5 * h, t1 - h);
+            if energy_fix {
+                start_energy += self.effects_spring_energy();
+            }
         }
         {
             let ls = &mut self.lagrange;
@@ -637,7 +747,13 @@ impl Mpc184World {
             rb.reset_forces(false);
             rb.reset_torques(false);
             rb.set_linvel(Vector::new(x[0], x[1], x[2]), false);
-            rb.set_angvel(Vector::new(x[3], x[4], x[5]), false);
+            let w = Vector::new(x[3], x[4], x[5]);
+            let w = if self.lagrange.second[i] {
+                w * rotation_scale(w, h)
+            } else {
+                w
+            };
+            rb.set_angvel(w, false);
         }
         self.physics.step();
         for i in 0..nb {
@@ -649,6 +765,26 @@ impl Mpc184World {
             rb.add_torque(t, false);
         }
         self.lagrange_gather();
+        // Second-order bodies were handed `w` scaled so that Rapier's linearised quaternion
+        // update (a turn by `2 atan(|w| h / 2)`) turns them by exactly `|w| h`: take the scale
+        // back (unless a contact changed the velocity in Rapier's solve).
+        if self.lagrange.second_any {
+            let ls = &mut self.lagrange;
+            for i in 0..nb {
+                if !ls.second[i] {
+                    continue;
+                }
+                let x = ls.rhs_b[i];
+                let w = Vector::new(x[3], x[4], x[5]);
+                let scale = rotation_scale(w, h);
+                let s = &mut ls.st[i];
+                s.angvel = if s.angvel == w * scale {
+                    w
+                } else {
+                    s.angvel / scale
+                };
+            }
+        }
         // 3. Position projection along the start-of-substep directions (chord iterations).
         let tol = PROJECTION_TOLERANCE.max(10.0 * Real::EPSILON);
         let mut residual = 0.0;
@@ -766,8 +902,18 @@ impl Mpc184World {
             let ls = &mut self.lagrange;
             for i in 0..nb {
                 let s = &ls.st[i];
-                let mv = s.linvel * s.mass;
-                let mw = s.inertia * s.angvel + s.angvel * s.added;
+                let (v, w) = if ls.second[i] {
+                    // The second half kick of RATTLE, with the forces at q_(n+1).
+                    let hh = 0.5 * h;
+                    (
+                        s.linvel + s.force * (hh / s.mass),
+                        gyroscopic_kick(s, s.angvel, hh) + s.inertia_inv * s.torque * hh,
+                    )
+                } else {
+                    (s.linvel, s.angvel)
+                };
+                let mv = v * s.mass;
+                let mw = s.inertia * w + w * s.added;
                 ls.rhs_b[i] = [mv.x, mv.y, mv.z, mw.x, mw.y, mw.z];
             }
         }
@@ -823,6 +969,10 @@ impl Mpc184World {
                 ls.st[i].angvel = Vector::new(x[3], x[4], x[5]);
             }
         }
+        self.effects_book_drive_work();
+        if energy_fix {
+            self.effects_energy_fix(h, start_energy, start_ledger)?;
+        }
         // Write poses and velocities back to Rapier.
         for i in 0..nb {
             let b = self.lagrange.bodies[i];
@@ -843,7 +993,6 @@ impl Mpc184World {
             self.lagrange.written[i] = (s.pose, s.linvel, s.angvel);
         }
         self.lagrange.factor_valid = Some(h);
-        self.effects_book_drive_work();
         self.update_screw_references();
         Ok(())
     }
@@ -952,6 +1101,7 @@ impl Mpc184World {
             }
             self.lagrange_factor(h)?;
         }
+        self.lagrange_choose_order();
         for k in 0..n {
             let t1 = self.time + (k + 1) as Real * h;
             self.update_drives(t1, h);
@@ -989,4 +1139,33 @@ fn displace(s: &mut BodyState, dx: Vector, dth: Vector) {
     let rot: Rotation = (Rotation::from_scaled_axis(dth) * s.pose.rotation).normalize();
     s.pose.rotation = rot;
     s.pose.translation = s.com - rot * local_com;
+}
+
+/// The implicit-midpoint gyroscopic update over `dt`: `w' = w - dt I^-1 (w_m x I w_m)` with
+/// `w_m = (w + w') / 2` (fixed-point iterations, contracting for `dt |w| < 1`). It keeps the
+/// rotational energy and the angular momentum of a free body exactly, where the explicit
+/// `-w x I w` gains energy every step (measured: the IFToMM slider-crank gained 7 % of its
+/// energy scale per second at h = 1/240 s).
+fn gyroscopic_kick(s: &BodyState, w: Vector, dt: Real) -> Vector {
+    let mut wg = w;
+    for _ in 0..GYRO_ITERATIONS {
+        let wm = 0.5 * (w + wg);
+        wg = w - s.inertia_inv * wm.cross(s.inertia * wm) * dt;
+    }
+    wg
+}
+
+/// The factor on `w` that makes Rapier's linearised quaternion update
+/// (`q' = normalize((1 + w h / 2) q)`, a turn by `2 atan(|w| h / 2)`) turn a body by exactly
+/// `|w| h`: `tan(|w| h / 2) / (|w| h / 2)`. One for tiny turns; capped below a half turn.
+pub(crate) fn rotation_scale(w: Vector, h: Real) -> Real {
+    let half = 0.5 * w.length() * h;
+    if half < 1e-4 {
+        // Series: 1 + x^2 / 3 (the next term, 2 x^4 / 15, is below round-off here).
+        1.0 + half * half / 3.0
+    } else if half < 1.5 {
+        half.tan() / half
+    } else {
+        (1.5 as Real).tan() / 1.5
+    }
 }

@@ -33,5 +33,7 @@ pub mod prelude {
     pub use crate::joint::{ConstraintMethod, Mpc184Joint};
     pub use crate::lower::Backend;
     pub use crate::math::{Real, Rotation, Vector};
-    pub use crate::world::{DriveLevel, DriveProfile, JointOutput, Mpc184World, WorldSettings};
+    pub use crate::world::{
+        DriveLevel, DriveProfile, Integrator, JointOutput, Mpc184World, WorldSettings,
+    };
 }

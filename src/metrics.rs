@@ -113,6 +113,27 @@ pub fn pendulum_study(
     substeps: usize,
     duration: Real,
 ) -> Result<PendulumReport, crate::error::Error> {
+    pendulum_study_with(
+        backend,
+        crate::world::Integrator::default(),
+        axis,
+        theta0,
+        dt,
+        substeps,
+        duration,
+    )
+}
+
+/// [`pendulum_study`] with a chosen integrator (Lagrange backend; the Rapier backends ignore it).
+pub fn pendulum_study_with(
+    backend: crate::lower::Backend,
+    integrator: crate::world::Integrator,
+    axis: crate::catalogue::Axis,
+    theta0: Real,
+    dt: Real,
+    substeps: usize,
+    duration: Real,
+) -> Result<PendulumReport, crate::error::Error> {
     use crate::catalogue::Axis;
     use crate::dof::Dof;
     use crate::scenes::{self, G};
@@ -122,6 +143,7 @@ pub fn pendulum_study(
         dt: h,
         substeps: 1,
         backend,
+        integrator,
     };
     let mut p = scenes::pendulum(settings, axis, 1.0, theta0, 1.0, 1e-4)?;
     let exact = pendulum_period(p.pivot_inertia(), p.mass, G, p.length, theta0);
@@ -160,6 +182,7 @@ pub fn pendulum_study(
             dt,
             substeps,
             backend,
+            integrator,
         },
         axis,
         1.0,

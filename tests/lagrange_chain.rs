@@ -22,6 +22,7 @@ fn heavy_ended_chain_is_stable_at_four_substeps() {
         dt: 1.0 / 60.0,
         substeps: 4,
         backend: Backend::Lagrange,
+        ..Default::default()
     };
     let mut b =
         benchmarks::chain(settings, 100, 0.1, 0.01, 1000.0, 20f64.to_radians() as Real).unwrap();

@@ -26,6 +26,7 @@ fn bricard_mechanism_keeps_moving_with_its_redundant_constraint() {
         dt: 1.0 / 100.0,
         substeps: 4,
         backend: Backend::Lagrange,
+        ..Default::default()
     };
     let mut b = benchmarks::bricard(settings).unwrap();
     let (mut gap, mut energies, mut kinetic): (Real, Vec<Real>, Vec<Real>) = (0.0, vec![], vec![]);
@@ -65,6 +66,7 @@ fn parallelogram_four_bar_crosses_its_singular_positions_on_its_branch() {
         dt: 1.0 / 60.0,
         substeps: 4,
         backend: Backend::Lagrange,
+        ..Default::default()
     };
     let mut b = benchmarks::four_bar_parallelogram(settings).unwrap();
     let (crank, coupler) = (b.bodies[0], b.bodies[1]);

@@ -43,6 +43,7 @@ fn lagrange_rod_tension_at_the_bottom_is_exact() {
         dt: 1.0 / 240.0,
         substeps: 1,
         backend: Backend::Lagrange,
+        ..Default::default()
     };
     let mut p = scenes::pendulum(settings, Axis::Z, 1.0, theta0, 1.0, 1e-4).unwrap();
     let exact = p.mass

@@ -27,6 +27,7 @@ fn precession(backend: Backend) -> (Real, Real, Real) {
         dt: 1.0 / 60.0,
         substeps: 4,
         backend,
+        ..Default::default()
     };
     let (mut world, bob, _joint) = scenes::conical_pendulum(settings, l, alpha, 1.0, 1e-4).unwrap();
     let exact = (G / (l * alpha.cos())).sqrt();

@@ -27,6 +27,7 @@ fn nut_falls_down_the_screw_at_the_coupled_acceleration() {
         dt: 1.0 / 60.0,
         substeps: 4,
         backend: Backend::Lagrange,
+        ..Default::default()
     };
     let h = settings.dt / settings.substeps as Real;
     let mut world = Mpc184World::new(settings);

@@ -24,6 +24,7 @@ fn block_slides_down_the_incline_at_g_sin_alpha() {
             dt: 1.0 / 60.0,
             substeps: 4,
             backend,
+            ..Default::default()
         };
         let h = settings.dt / settings.substeps as Real;
         let (mut world, _block, joint) = scenes::incline(settings, alpha, 2.0).unwrap();

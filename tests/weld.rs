@@ -22,6 +22,7 @@ fn run(backend: Backend) -> (Real, Real) {
         dt: 1.0 / 60.0,
         substeps: 4,
         backend,
+        ..Default::default()
     });
     let b1 = world.physics.bodies.insert(
         RigidBodyBuilder::dynamic()

@@ -55,6 +55,8 @@ pub struct BuildOptions {
     pub backend: Backend,
     /// Substeps per output step (default 4).
     pub substeps: usize,
+    /// Time integration of the Lagrange backend (default first order).
+    pub integrator: crate::world::Integrator,
 }
 
 impl Default for BuildOptions {
@@ -62,6 +64,7 @@ impl Default for BuildOptions {
         Self {
             backend: Backend::Lagrange,
             substeps: 4,
+            integrator: crate::world::Integrator::default(),
         }
     }
 }
@@ -512,6 +515,7 @@ impl DeckModel {
             dt: first_dt as Real,
             substeps: options.substeps,
             backend: options.backend,
+            integrator: options.integrator,
         });
         world.physics.gravity = Vector::ZERO;
         let mut bodies: Vec<DeckBody> = Vec::new();
