@@ -113,8 +113,8 @@ struct Config {
     /// Time steps as 1/x.
     rates: Vec<u32>,
     substeps: Vec<usize>,
-    /// Simulated seconds per scene: A01, A02, A04, chain, slider-crank.
-    durations: [f64; 5],
+    /// Simulated seconds per scene: A01, conical pendulum, A02, A04, chain, slider-crank.
+    durations: [f64; 6],
     chain_links: usize,
     /// Reference substep (s).
     h_ref: f64,
@@ -133,7 +133,7 @@ impl Config {
                 quick,
                 rates: vec![30, 60],
                 substeps: vec![1, 2],
-                durations: [1.0; 5],
+                durations: [1.0; 6],
                 chain_links: 20,
                 h_ref: 1.0 / 960.0,
                 budget: 1.0,
@@ -147,7 +147,7 @@ impl Config {
                 quick,
                 rates: vec![30, 60, 120, 240, 480, 960],
                 substeps: vec![1, 2, 4, 8],
-                durations: [10.0, 10.0, 10.0, 2.0, 5.0],
+                durations: [10.0, 10.0, 10.0, 10.0, 2.0, 5.0],
                 chain_links: 100,
                 h_ref: 1.0 / (4.0 * 960.0 * 8.0),
                 budget: 12.0,
@@ -163,13 +163,16 @@ impl Config {
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Method {
     Lagrange,
+    /// The Lagrange backend with the second-order integrator (RATTLE).
+    Rattle,
     Penalty(f64),
     Impulse,
     Multibody,
 }
 
-const METHODS: [Method; 6] = [
+const METHODS: [Method; 7] = [
     Method::Lagrange,
+    Method::Rattle,
     Method::Penalty(1e4),
     Method::Penalty(1e6),
     Method::Penalty(1e8),
@@ -181,6 +184,7 @@ impl Method {
     fn name(self) -> String {
         match self {
             Method::Lagrange => "lagrange".into(),
+            Method::Rattle => "lagrange-rattle".into(),
             Method::Penalty(k) => format!("penalty-{k:.0e}"),
             Method::Impulse => "rapier-impulse".into(),
             Method::Multibody => "rapier-multibody".into(),
@@ -189,7 +193,7 @@ impl Method {
 
     fn backend(self) -> Backend {
         match self {
-            Method::Lagrange | Method::Penalty(_) => Backend::Lagrange,
+            Method::Lagrange | Method::Rattle | Method::Penalty(_) => Backend::Lagrange,
             Method::Impulse => Backend::RapierImpulse,
             Method::Multibody => Backend::RapierMultibody,
         }
@@ -198,6 +202,7 @@ impl Method {
     fn color(self) -> RGBColor {
         match self {
             Method::Lagrange => RGBColor(31, 119, 180),
+            Method::Rattle => RGBColor(148, 103, 189),
             Method::Penalty(k) if k < 1e5 => RGBColor(255, 187, 120),
             Method::Penalty(k) if k < 1e7 => RGBColor(255, 127, 14),
             Method::Penalty(_) => RGBColor(140, 86, 75),
@@ -210,14 +215,16 @@ impl Method {
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Scene {
     A01,
+    Conical,
     A02,
     A04,
     Chain,
     SliderCrank,
 }
 
-const SCENES: [Scene; 5] = [
+const SCENES: [Scene; 6] = [
     Scene::A01,
+    Scene::Conical,
     Scene::A02,
     Scene::A04,
     Scene::Chain,
@@ -232,6 +239,7 @@ impl Scene {
     fn key(self) -> &'static str {
         match self {
             Scene::A01 => "a01_pendulum",
+            Scene::Conical => "conical_pendulum",
             Scene::A02 => "a02_four_bar",
             Scene::A04 => "a04_bricard",
             Scene::Chain => "chain",
@@ -243,6 +251,7 @@ impl Scene {
         let d = cfg.durations[self.index()];
         match self {
             Scene::A01 => format!("A01 pendulum, {d} s (spec 2000 s), bob x, y vs exact"),
+            Scene::Conical => format!("conical pendulum 45 deg (spherical), {d} s, bob vs exact"),
             Scene::A02 => format!("A02 four-bar N=1, {d} s (spec 20 s), B0 x, y vs exact"),
             Scene::A04 => format!("A04 Bricard, {d} s, P3 vs converged Lagrange"),
             Scene::Chain => format!(
@@ -258,7 +267,7 @@ impl Scene {
     /// Characteristic length (m): a gap above a tenth of it is a failure.
     fn length(self) -> f64 {
         match self {
-            Scene::A01 | Scene::A02 | Scene::A04 => 1.0,
+            Scene::A01 | Scene::Conical | Scene::A02 | Scene::A04 => 1.0,
             Scene::Chain => benchmarks::CHAIN_LINK_LENGTH as f64,
             Scene::SliderCrank => 0.08,
         }
@@ -271,6 +280,7 @@ impl Scene {
     ) -> Result<Benchmark, rapier3d_mpc184::Error> {
         match self {
             Scene::A01 => pendulum_benchmark(settings),
+            Scene::Conical => conical_benchmark(settings),
             Scene::A02 => benchmarks::four_bar_parallelogram(settings),
             Scene::A04 => benchmarks::bricard(settings),
             Scene::Chain => chain(settings, cfg.chain_links, 1000.0),
@@ -310,6 +320,39 @@ fn pendulum_benchmark(settings: WorldSettings) -> Result<Benchmark, rapier3d_mpc
 
 const PENDULUM_INERTIA: f64 = 1e-4;
 
+/// Half-angle of the conical pendulum (rad).
+const CONICAL_ALPHA: f64 = std::f64::consts::FRAC_PI_4;
+
+/// Conical pendulum: 1 kg bob (isotropic inertia 1e-4 kg m^2) 1 m from a grounded spherical
+/// joint, 45 deg from the vertical, in its exact steady precession `Omega^2 = g / (L cos alpha)`
+/// about +Y (the isotropic bob spins with the rod, so the point-mass rate holds exactly);
+/// energy scale: its kinetic energy `m (Omega L sin alpha)^2 / 2`.
+fn conical_benchmark(settings: WorldSettings) -> Result<Benchmark, rapier3d_mpc184::Error> {
+    let (world, bob, joint) = scenes::conical_pendulum(
+        settings,
+        1.0,
+        CONICAL_ALPHA as Real,
+        1.0,
+        PENDULUM_INERTIA as Real,
+    )?;
+    let e0 = world.kinetic_energy() + world.potential_energy();
+    let omega2 = G / CONICAL_ALPHA.cos() as Real;
+    let r = CONICAL_ALPHA.sin() as Real;
+    Ok(Benchmark {
+        world,
+        bodies: vec![bob],
+        joints: vec![joint],
+        joint_bodies: vec![[None, Some(bob)]],
+        initial_energy: e0,
+        energy_scale: 0.5 * omega2 * r * r,
+        probe: Probe {
+            body: bob,
+            local: Vector::ZERO,
+        },
+        duration: 10.0,
+    })
+}
+
 fn chain(
     settings: WorldSettings,
     n: usize,
@@ -330,7 +373,11 @@ fn settings(method: Method, dt: f64, substeps: usize) -> WorldSettings {
         dt: dt as Real,
         substeps,
         backend: method.backend(),
-        ..Default::default()
+        integrator: if method == Method::Rattle {
+            Integrator::Rattle
+        } else {
+            Integrator::SymplecticEuler
+        },
     }
 }
 
@@ -427,6 +474,24 @@ fn reference(scene: Scene, cfg: &Config) -> DynResult<Reference> {
                 floor: 0.0,
                 points: fine,
                 how: "exact: RK4 at h = 1/122880 s on I_p theta'' = -m g L sin theta".into(),
+            }
+        }
+        Scene::Conical => {
+            // Steady precession about +Y at Omega from (L sin a, -L cos a, 0): the bob at
+            // (L sin a cos(Omega t), -L cos a, -L sin a sin(Omega t)).
+            let (sa, ca) = CONICAL_ALPHA.sin_cos();
+            let omega = (G as f64 / ca).sqrt();
+            let outputs = (secs / OUTPUT_STEP).round() as usize;
+            let points = (0..=outputs)
+                .map(|k| {
+                    let t = k as f64 * OUTPUT_STEP;
+                    [sa * (omega * t).cos(), -ca, -sa * (omega * t).sin()]
+                })
+                .collect();
+            Reference {
+                floor: 0.0,
+                points,
+                how: "exact: steady precession, Omega^2 = g / (L cos alpha)".into(),
             }
         }
         Scene::A02 => {
@@ -667,6 +732,18 @@ fn run(cfg: &Config, out: &Path) -> DynResult<()> {
             chart.save(out, &name, (960, 640), &mut files)?;
         }
     }
+    for scene in [Scene::A01, Scene::Conical, Scene::A02] {
+        let rs: Vec<&Run> = runs.iter().filter(|r| r.scene == scene).collect();
+        let caption = format!(
+            "{}: error against substep",
+            scene.title(cfg).split(',').next().unwrap_or("")
+        );
+        Chart::Convergence {
+            caption: &caption,
+            runs: &rs,
+        }
+        .save(out, &format!("order_{}", scene.key()), (960, 640), &mut files)?;
+    }
     Chart::Stability(cfg, &stability).save(out, "stability_chain", (1000, 680), &mut files)?;
     Chart::Scaling(&scaling).save(out, "scaling_chain", (900, 600), &mut files)?;
     let summary = summary(cfg, &runs, &refs, &stability, &scaling, wall);
@@ -840,6 +917,11 @@ enum Chart<'a> {
     },
     Stability(&'a Config, &'a [Cell]),
     Scaling(&'a [Cost]),
+    /// Trajectory error against the substep h (the order of each method).
+    Convergence {
+        caption: &'a str,
+        runs: &'a [&'a Run],
+    },
 }
 
 impl Chart<'_> {
@@ -874,10 +956,119 @@ impl Chart<'_> {
             } => work_precision(&root, caption, y_desc, runs, *energy)?,
             Chart::Stability(cfg, cells) => draw_stability(&root, cfg, cells)?,
             Chart::Scaling(costs) => draw_scaling(&root, costs)?,
+            Chart::Convergence { caption, runs } => draw_convergence(&root, caption, runs)?,
         }
         root.present()?;
         Ok(())
     }
+}
+
+/// Per method, the smallest trajectory error at each substep size `h = dt / substeps` (ok runs).
+fn by_substep(runs: &[&Run], method: Method) -> Vec<(f64, f64)> {
+    let mut pts: Vec<(f64, f64)> = Vec::new();
+    for r in runs.iter().filter(|r| r.method == method && r.ok()) {
+        let h = r.dt / r.substeps as f64;
+        let e = r.traj.max(ERR_FLOOR);
+        match pts.iter_mut().find(|(x, _)| (x / h - 1.0).abs() < 1e-9) {
+            Some(p) => p.1 = p.1.min(e),
+            None => pts.push((h, e)),
+        }
+    }
+    pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+    pts
+}
+
+/// Observed order: the least-squares slope of log(error) against log(h) over the points with
+/// an error above `floor` (NaN with fewer than two).
+fn observed_order(pts: &[(f64, f64)], floor: f64) -> f64 {
+    let p: Vec<(f64, f64)> = pts
+        .iter()
+        .filter(|(_, e)| *e > floor)
+        .map(|(h, e)| (h.ln(), e.ln()))
+        .collect();
+    if p.len() < 2 {
+        return f64::NAN;
+    }
+    let n = p.len() as f64;
+    let (mx, my) = (
+        p.iter().map(|q| q.0).sum::<f64>() / n,
+        p.iter().map(|q| q.1).sum::<f64>() / n,
+    );
+    let sxy: f64 = p.iter().map(|q| (q.0 - mx) * (q.1 - my)).sum();
+    let sxx: f64 = p.iter().map(|q| (q.0 - mx) * (q.0 - mx)).sum();
+    sxy / sxx
+}
+
+fn draw_convergence<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    caption: &str,
+    runs: &[&Run],
+) -> DynResult<()>
+where
+    DB::ErrorType: 'static,
+{
+    let all: Vec<(Method, Vec<(f64, f64)>)> = METHODS
+        .iter()
+        .map(|m| (*m, by_substep(runs, *m)))
+        .filter(|(_, p)| !p.is_empty())
+        .collect();
+    let hs = all.iter().flat_map(|(_, p)| p.iter().map(|q| q.0));
+    let (x0, x1) = hs.fold((f64::INFINITY, 0.0f64), |(a, b), h| (a.min(h), b.max(h)));
+    let (x0, x1) = (x0 / 1.5, x1 * 1.5);
+    let es: Vec<f64> = all.iter().flat_map(|(_, p)| p.iter().map(|q| q.1)).collect();
+    let y0 = es.iter().copied().fold(1e-4, f64::min) / 3.0;
+    let y1 = es.iter().copied().fold(1.0, f64::max) * 5.0;
+    let mut chart = ChartBuilder::on(root)
+        .caption(caption, ("sans-serif", 20))
+        .margin(12)
+        .x_label_area_size(45)
+        .y_label_area_size(70)
+        .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())?;
+    chart
+        .configure_mesh()
+        .x_desc("substep h (s)")
+        .y_desc("trajectory error (m), best run at each h")
+        .x_label_formatter(&|x| format!("{x:.0e}"))
+        .y_label_formatter(&|y| format!("{y:.0e}"))
+        .label_style(("sans-serif", 14))
+        .axis_desc_style(("sans-serif", 15))
+        .light_line_style(WHITE.mix(0.0))
+        .draw()?;
+    // Slope guides through the coarsest point of the first- and second-order Lagrange runs.
+    let gray = RGBColor(120, 120, 120);
+    for (method, slope) in [(Method::Lagrange, 1.0), (Method::Rattle, 2.0)] {
+        if let Some((_, p)) = all.iter().find(|(m, _)| *m == method)
+            && let Some(&(h, e)) = p.last()
+        {
+            let at = |x: f64| e * 2.0 * (x / h).powf(slope);
+            chart.draw_series(LineSeries::new(
+                [(x0, at(x0).max(y0)), (h, at(h))],
+                gray.stroke_width(1),
+            ))?;
+            chart.draw_series(std::iter::once(Text::new(
+                format!("slope {slope:.0}"),
+                (h / 1.4, at(h) * 1.6),
+                ("sans-serif", 13).into_font().color(&gray),
+            )))?;
+        }
+    }
+    for (method, pts) in &all {
+        let c = method.color();
+        let order = observed_order(pts, 1e-9);
+        chart
+            .draw_series(LineSeries::new(pts.iter().copied(), c.stroke_width(2)))?
+            .label(format!("{} (order {order:.2})", method.name()))
+            .legend(move |(x, yy)| PathElement::new([(x, yy), (x + 20, yy)], c.stroke_width(3)));
+        chart.draw_series(pts.iter().map(|&q| Circle::new(q, 3, c.filled())))?;
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::LowerRight)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .label_font(("sans-serif", 13))
+        .draw()?;
+    Ok(())
 }
 
 /// Runs on the Pareto front (no other run both cheaper and more accurate), by CPU time.
@@ -1223,7 +1414,7 @@ fn summary(
         }
         let _ = writeln!(
             s,
-            "\n| method | runs ok/failed/skipped | cheapest <= 1e-1 m | cheapest <= 1e-3 m | best error | failures |\n|---|---|---|---|---|---|"
+            "\n| method | runs ok/failed/skipped | cheapest <= 1e-1 m | cheapest <= 1e-3 m | cheapest <= 1e-5 m | order in h | best error | failures |\n|---|---|---|---|---|---|---|---|"
         );
         for method in METHODS {
             let mine: Vec<&Run> = rs.iter().copied().filter(|r| r.method == method).collect();
@@ -1257,15 +1448,17 @@ fn summary(
                 })
                 .collect();
             let n = |f: &dyn Fn(&Run) -> bool| mine.iter().filter(|r| f(r)).count();
+            let order = observed_order(&by_substep(&rs, method), 1e-9);
             let _ = writeln!(
                 s,
-                "| {} | {}/{}/{} | {} | {} | {best} | {} |",
+                "| {} | {}/{}/{} | {} | {} | {} | {order:.2} | {best} | {} |",
                 method.name(),
                 n(&|r| r.ok()),
                 n(&|r| r.failed()),
                 n(&|r| r.status.starts_with("skipped")),
                 cheapest(1e-1),
                 cheapest(1e-3),
+                cheapest(1e-5),
                 if fails.is_empty() {
                     "none".into()
                 } else {
