@@ -742,7 +742,12 @@ fn run(cfg: &Config, out: &Path) -> DynResult<()> {
             caption: &caption,
             runs: &rs,
         }
-        .save(out, &format!("order_{}", scene.key()), (960, 640), &mut files)?;
+        .save(
+            out,
+            &format!("order_{}", scene.key()),
+            (960, 640),
+            &mut files,
+        )?;
     }
     Chart::Stability(cfg, &stability).save(out, "stability_chain", (1000, 680), &mut files)?;
     Chart::Scaling(&scaling).save(out, "scaling_chain", (900, 600), &mut files)?;
@@ -1015,7 +1020,10 @@ where
     let hs = all.iter().flat_map(|(_, p)| p.iter().map(|q| q.0));
     let (x0, x1) = hs.fold((f64::INFINITY, 0.0f64), |(a, b), h| (a.min(h), b.max(h)));
     let (x0, x1) = (x0 / 1.5, x1 * 1.5);
-    let es: Vec<f64> = all.iter().flat_map(|(_, p)| p.iter().map(|q| q.1)).collect();
+    let es: Vec<f64> = all
+        .iter()
+        .flat_map(|(_, p)| p.iter().map(|q| q.1))
+        .collect();
     let y0 = es.iter().copied().fold(1e-4, f64::min) / 3.0;
     let y1 = es.iter().copied().fold(1.0, f64::max) * 5.0;
     let mut chart = ChartBuilder::on(root)

@@ -10,7 +10,7 @@
 use std::time::Instant;
 
 use rapier3d_mpc184::benchmarks::{self, Benchmark};
-use rapier3d_mpc184::metrics::pendulum_study;
+use rapier3d_mpc184::metrics::pendulum_study_with;
 use rapier3d_mpc184::prelude::*;
 
 const BACKENDS: [Backend; 3] = [
@@ -65,29 +65,36 @@ fn pendulum() {
         "\n## pendulum 1 m, 90 deg, 20 s, dt 1/60, 4 substeps (drift and oscillation / m g L)"
     );
     println!(
-        "{:<18} {:>10} {:>11} {:>10} {:>10} {:>10} {:>9}",
+        "{:<30} {:>10} {:>11} {:>10} {:>10} {:>10} {:>9}",
         "backend", "T err", "drift", "osc", "tension", "gap m", "us/step"
     );
-    for backend in BACKENDS {
-        match pendulum_study(
+    let runs = BACKENDS
+        .iter()
+        .map(|b| (*b, Integrator::SymplecticEuler, 4))
+        .chain([
+            (Backend::Lagrange, Integrator::Rattle, 4),
+            (Backend::Lagrange, Integrator::Rattle, 24),
+        ]);
+    for (backend, integrator, substeps) in runs {
+        let name = if backend == Backend::Lagrange {
+            format!("{} {} x{substeps}", backend.name(), integrator.name())
+        } else {
+            backend.name().to_string()
+        };
+        match pendulum_study_with(
             backend,
+            integrator,
             Axis::Z,
             90f64.to_radians() as Real,
             1.0 / 60.0,
-            4,
+            substeps,
             20.0,
         ) {
             Ok(r) => println!(
-                "{:<18} {:>10.2e} {:>+11.2e} {:>10.2e} {:>10.2e} {:>10.1e} {:>9.2}",
-                backend.name(),
-                r.period_err,
-                r.drift,
-                r.oscillation,
-                r.tension_err,
-                r.max_gap,
-                r.us_per_step
+                "{:<30} {:>10.2e} {:>+11.2e} {:>10.2e} {:>10.2e} {:>10.1e} {:>9.2}",
+                name, r.period_err, r.drift, r.oscillation, r.tension_err, r.max_gap, r.us_per_step
             ),
-            Err(e) => println!("{:<18} {e}", backend.name()),
+            Err(e) => println!("{name:<30} {e}"),
         }
     }
 }

@@ -14,6 +14,20 @@
 //! 4. rows at `q_(n+1)`, one factorisation (reused by the next substep's velocity solve), and
 //!    the velocity projection `J v = 0`.
 //!
+//! With [`Integrator::Rattle`](crate::world::Integrator::Rattle) the same four stages form
+//! RATTLE (second order): stage 1 kicks by `h/2` only (forces and the implicit-midpoint
+//! gyroscopic term at `q_n`), stage 2 hands Rapier `w` scaled by `tan(|w| h/2) / (|w| h/2)` so
+//! that its linearised quaternion update turns the body by exactly `|w| h`, and stage 4 adds
+//! the second half kick with the forces at `q_(n+1)` before the velocity projection, so the
+//! velocities live at whole steps. A stop that reflects in a substep is followed by the
+//! energy-consistent velocity update of Laursen and Love (2002) (the outgoing rate along the
+//! stop set so that the substep keeps its energy, see
+//! `Mpc184World::effects_energy_fix`). An island with an active contact takes the first-order
+//! step for that step (Rapier's contact solve is first order; mixing would lose the order
+//! anyway), reported in [`LagrangeDiagnostics`]. Measured (`tests/rattle_*.rs`): observed order
+//! 2.00 against 1.02, energy oscillation of the 90 deg pendulum at dt 1/60 x 4 6.4e-5 m g L
+//! against 5.7e-3, a stop impact changing the energy by 3.7e-7 m g L against 2.3e-3.
+//!
 //! The linear algebra is the block-sparse `LDL^T` of the KKT system ([`crate::solver::kkt`]):
 //! linear time for trees, a little fill for loops, redundant rows (the Bricard mechanism, planar
 //! loops of 3D revolutes) dropped with their multipliers set to zero.

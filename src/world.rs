@@ -53,7 +53,7 @@ pub struct WorldSettings {
 ///
 /// Islands of bodies with an active contact integrate with the first-order step for that step
 /// (contacts are Rapier's, solved once per substep); the count is in
-/// [`LagrangeDiagnostics::first_order_bodies`](crate::LagrangeDiagnostics).
+/// [`LagrangeDiagnostics::first_order_bodies`](crate::lagrange::LagrangeDiagnostics::first_order_bodies).
 #[derive(
     Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize,
 )]
