@@ -73,7 +73,7 @@ pub fn secular_drift(t: &[Real], e: &[Real], crossings: &[Real], scale: Real) ->
     (mean(crossings[n - 4], crossings[n - 1]) - mean(crossings[0], crossings[3])) / scale
 }
 
-/// Largest |e - e[0]| / scale.
+/// Largest `|e - e[0]| / scale`.
 pub fn max_oscillation(e: &[Real], scale: Real) -> Real {
     e.iter().map(|x| (x - e[0]).abs()).fold(0.0, Real::max) / scale
 }
