@@ -61,7 +61,7 @@ enum Command {
 struct RunArgs {
     /// The APDL input file.
     deck: PathBuf,
-    /// Output directory (default: out/<deck name>).
+    /// Output directory (default: `out/<deck name>`).
     #[arg(long)]
     out: Option<PathBuf>,
     /// Joint backend.
