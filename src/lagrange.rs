@@ -585,6 +585,7 @@ impl Mpc184World {
                 let jr = &ls.jac[JAC_ROW_STRIDE * r..JAC_ROW_STRIDE * (r + 1)];
                 force += Vector::new(jr[6], jr[7], jr[8]) * (ls.impulse[r] / h);
             }
+            let force = force.length();
             let slots = kkt.joint_specs()[k].bodies;
             let p = match slots[1] {
                 Some(i) => (ls.st[i].pose * e.low[1]).translation,
@@ -593,13 +594,24 @@ impl Mpc184World {
             {
                 for i in slots.into_iter().flatten() {
                     let r = (p - ls.st[i].com).length();
-                    load[i].0 += force.length() * r;
+                    load[i].0 += force * r;
                     load[i].1 = load[i].1.max(r);
                 }
             }
         }
         let mut stiffened = 0;
+        // Second order on a redundant structure: no added inertia. The multipliers of dependent
+        // rows are set by the regularisation, not by the physics, and grow without bound where
+        // the rows become nearly dependent (a parallelogram four-bar passing its singular pose),
+        // so the force estimate is meaningless there; the added inertia it switched on cost
+        // RATTLE 1e-3 of the four-bar's energy per passage at h = 1/240 s. (The first-order
+        // scheme keeps it: its velocities live at half steps and it never tripped there.)
+        let skip = ls.second_any && ls.redundant;
         for (s, (kg, r)) in ls.st.iter_mut().zip(load) {
+            if skip {
+                s.added = 0.0;
+                continue;
+            }
             let omega2 = kg / (s.min_inertia + s.mass * r * r);
             s.added = if omega2 * h * h > 0.25 {
                 stiffened += 1;
