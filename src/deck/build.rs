@@ -8,6 +8,7 @@
 //! | a body without mass | fixed if one of its nodes has `D,node,ALL,0`; otherwise an error naming the node |
 //! | `D,node,ALL,0` (all six labels 0 in every load step) | the node's body is a Rapier fixed body |
 //! | other `D` (a subset of labels, or nonzero values) | a grounded MPC184 general joint at the node, global axes (ground = I, the node's body = J): the labels held at 0 in every load step are its constraints; a label with a nonzero value in some load step is released and driven ([`Mpc184World::set_drive`], relative to time 0: the node's displacement or Bryant rotation), ramped (`KBC,0`) or stepped (`KBC,1`) from the previous load step's value; the set of labels of a node must stay the same in every load step |
+//! | MPC184 rigid links (KEYOPT(1) = 0) | a [`JointKind::RigidLink`] between the bodies of its two nodes (a distance row, frame I the global axes; KEYOPT(2) 0 or 1 both exact) |
 //! | MPC184 joints (KEYOPT(1) = 6..19) | [`Mpc184Joint`]: kind (KEYOPT(1), (4), `SECJOINT,RDOF`, `PITC`), method (KEYOPT(2), `PNLT`), frames (`SECJOINT,LSYS`), `SECSTOP`, `SECLOCK`, `SECDATA`, `TB,JOIN` STIF DAMP JNS* JND* |
 //! | `TB,JOIN` friction options (MUS*, EXP*, SL*, SK*, TMX*, FI*) with `SECJOINT,FRIC` | [`crate::behaviour::Friction`] on the joint (the raw tables also kept in [`DeckJoint::friction`]); SK/SL are recorded, stick is exact |
 //! | `ACEL` | world gravity = -ACEL |
@@ -17,9 +18,9 @@
 //! | `IC` velocities | the body's rigid velocity, least-squares fitted to its nodes' velocities |
 //! | `TIME`, `DELTIM`, `NSUBST`, `KBC` | the time step, the number of output steps, ramped or stepped profiles |
 //!
-//! Everything else is an error that names the deck line (`FILE:LINE: COMMAND: what`): rigid
-//! links (KEYOPT(1) = 0: a distance constraint this crate has no row for), `D` whose set of
-//! labels changes between load steps, `ANTYPE,STATIC`, initial displacements.
+//! Everything else is an error that names the deck line (`FILE:LINE: COMMAND: what`): `D`
+//! whose set of labels changes between load steps, `ANTYPE,STATIC` on a mechanism with a free
+//! DOF (see below), initial displacements.
 //!
 //! Point masses: a body whose MASS21 elements give it no rotary inertia about some axis (point
 //! masses on a line, or a single point mass) gets `1e-6 m r^2` on that axis (`r` the largest
@@ -388,21 +389,8 @@ impl DeckModel {
                     };
                     uf.union(i, j);
                 }
-                Some(ElementRole::RigidLink) => {
-                    return Err(unsupported(
-                        deck,
-                        e.line,
-                        "E",
-                        format!(
-                            "element {}: MPC184 rigid link (KEYOPT(1) = 0), a pin-ended distance \
-                             constraint",
-                            e.id
-                        ),
-                        "this crate has no distance row yet: model the bar as a body (MPC184 \
-                         rigid beams, KEYOPT(1) = 1, to a MASS21) with spherical joints \
-                         (KEYOPT(1) = 15) at its ends",
-                    ));
-                }
+                // A pin-ended distance constraint between two bodies: a joint (below).
+                Some(ElementRole::RigidLink) => {}
                 Some(ElementRole::Mass) => {
                     let Some(node) = e.i.or(e.j) else {
                         return Err(invalid(
@@ -488,7 +476,10 @@ impl DeckModel {
         // Nodes that matter: on joints, loads and initial conditions.
         let mut used: BTreeMap<u32, (usize, &'static str)> = BTreeMap::new();
         for e in deck.elements.values() {
-            if deck.role_of(e) == Some(ElementRole::Joint) {
+            if matches!(
+                deck.role_of(e),
+                Some(ElementRole::Joint | ElementRole::RigidLink)
+            ) {
                 for n in [e.i, e.j].into_iter().flatten() {
                     used.entry(n).or_insert((e.line, "E"));
                 }
@@ -636,10 +627,11 @@ impl DeckModel {
         // Joints.
         let mut joints = Vec::new();
         for e in deck.elements.values() {
-            if deck.role_of(e) != Some(ElementRole::Joint) {
-                continue;
-            }
-            let dj = build_joint(deck, e, &node_body, &bodies, &mut notes)?;
+            let dj = match deck.role_of(e) {
+                Some(ElementRole::Joint) => build_joint(deck, e, &node_body, &bodies, &mut notes)?,
+                Some(ElementRole::RigidLink) => build_link(deck, e, &mut notes)?,
+                _ => continue,
+            };
             let b = |n: Option<u32>| n.and_then(|n| node_body.get(&n).and_then(|x| x.0));
             let (b1, b2) = (b(e.i), b(e.j));
             let fixed = |x: Option<usize>| x.is_none_or(|i| bodies[i].fixed);
@@ -1164,6 +1156,60 @@ fn plan_steps(deck: &Deck) -> Result<Vec<StepPlan>, Error> {
 }
 
 type BuiltJoint = (Mpc184Joint, Option<FrictionData>);
+
+/// An MPC184 rigid link (KEYOPT(1) = 0): a distance row between its two nodes, frame I the
+/// global axes. KEYOPT(2) (ANSYS: 0 direct elimination, 1 Lagrange multiplier) makes no
+/// difference here: the constraint is exact either way.
+fn build_link(
+    deck: &Deck,
+    e: &crate::deck::model::Element,
+    notes: &mut Vec<String>,
+) -> Result<BuiltJoint, Error> {
+    let pos = |n: Option<u32>| -> Result<Vector, Error> {
+        let n = n.ok_or_else(|| {
+            invalid(
+                deck,
+                e.line,
+                "E",
+                format!("rigid link element {} needs both nodes I and J", e.id),
+            )
+        })?;
+        deck.nodes.get(&n).map(|x| vec3(x.position)).ok_or_else(|| {
+            err(
+                deck,
+                e.line,
+                "E",
+                DeckErrorKind::MissingReference {
+                    what: format!("node {n} is not defined"),
+                },
+            )
+        })
+    };
+    let (p1, p2) = (pos(e.i)?, pos(e.j)?);
+    if (p2 - p1).length() <= 0.0 {
+        return Err(invalid(
+            deck,
+            e.line,
+            "E",
+            format!(
+                "rigid link element {}: nodes {} and {} coincide (a link needs a length)",
+                e.id,
+                e.i.unwrap_or(0),
+                e.j.unwrap_or(0)
+            ),
+        ));
+    }
+    if let Some(et) = deck.element_type_of(e)
+        && et.keyopt(2) == 1
+    {
+        notes.push(format!(
+            "{}:{}: ET: rigid link KEYOPT(2) = 1 (Lagrange multiplier): the distance is held \
+             exactly either way",
+            deck.file, et.line
+        ));
+    }
+    Ok((Mpc184Joint::rigid_link(p1, p2), None))
+}
 
 /// The friction model from a joint's friction `TB,JOIN` tables: the law from `MUSn` (TBDATA C1,
 /// or the TBPT table against slip rate when it has points) or `EXPn` (C1..C3 = `mu_s`, `mu_d`, `c`),
