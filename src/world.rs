@@ -360,6 +360,8 @@ pub struct Mpc184World {
     started: bool,
     recovery: Option<KktSolver>,
     pub(crate) ledger: crate::effects::EnergyLedger,
+    /// State of the static (position) analysis ([`crate::statics`]).
+    pub(crate) statics: crate::statics::StaticState,
 }
 
 impl Mpc184World {
@@ -382,6 +384,7 @@ impl Mpc184World {
             recovery: None,
             ledger: crate::effects::EnergyLedger::default(),
             lagrange: LagrangeState::default(),
+            statics: crate::statics::StaticState::default(),
         }
     }
 
@@ -500,7 +503,7 @@ impl Mpc184World {
                 .max(joint.node2.abs())
                 .max_element()
                 .max(1.0);
-            if !(length > 1e3 * Real::EPSILON * scale) {
+            if length.is_nan() || length <= 1e3 * Real::EPSILON * scale {
                 return Err(Error::DegenerateFrame {
                     joint: id,
                     node: 2,
@@ -1217,7 +1220,7 @@ impl Mpc184World {
         ([u.x, u.y, u.z, ang[0], ang[1], ang[2]], ang)
     }
 
-    fn refresh_output(&mut self, i: usize) {
+    pub(crate) fn refresh_output(&mut self, i: usize) {
         let Some(e) = &self.joints[i] else { return };
         let (mut m, wrapped) = self.measures(e);
         let p1 = *self.physics.bodies[e.body1].position();
@@ -1235,7 +1238,7 @@ impl Mpc184World {
             let c = r.eval(&fp).value.abs();
             match r {
                 RowKind::Linear { .. } | RowKind::Screw { .. } | RowKind::Distance { .. } => {
-                    gap = gap.max(c)
+                    gap = gap.max(c);
                 }
                 // A drive's error is a tracking error, not a gap.
                 RowKind::Drive { .. } => {}

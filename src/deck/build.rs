@@ -17,10 +17,17 @@
 //! | `F` | a Rapier user force (and torque) on the node's body at the node, re-applied every step |
 //! | `IC` velocities | the body's rigid velocity, least-squares fitted to its nodes' velocities |
 //! | `TIME`, `DELTIM`, `NSUBST`, `KBC` | the time step, the number of output steps, ramped or stepped profiles |
+//! | `ANTYPE,STATIC` | [`Mpc184World::static_step`] per output step (kinematically driven mechanisms only) |
 //!
 //! Everything else is an error that names the deck line (`FILE:LINE: COMMAND: what`): `D`
 //! whose set of labels changes between load steps, `ANTYPE,STATIC` on a mechanism with a free
 //! DOF (see below), initial displacements.
+//!
+//! `ANTYPE,STATIC` (in every load step, not mixed with `TRANS`): each output step is a position
+//! solve of the driven mechanism at that time ([`crate::statics`]: masses ignored, bodies at
+//! rest, reactions from statics with gravity, `F`, `FJ` and springs); a mechanism with a free
+//! DOF after its drives is an error naming the `SOLVE` line and the free DOF count, as is a
+//! static run on a Rapier backend. `IC` velocities are ignored there (a note says so).
 //!
 //! Point masses: a body whose MASS21 elements give it no rotary inertia about some axis (point
 //! masses on a line, or a single point mass) gets `1e-6 m r^2` on that axis (`r` the largest
@@ -172,6 +179,8 @@ pub struct DeckModel {
     prev_f: BTreeMap<(u32, ForceLabel), f64>,
     prev_acel: [f64; 3],
     forced_bodies: BTreeSet<usize>,
+    /// `ANTYPE,STATIC`: every step is a position solve ([`Mpc184World::static_step`]).
+    static_run: bool,
 }
 
 fn err(deck: &Deck, line: usize, command: &str, kind: DeckErrorKind) -> Error {
@@ -728,6 +737,14 @@ impl DeckModel {
             });
         }
 
+        let static_run = deck
+            .load_steps
+            .first()
+            .is_some_and(|ls| ls.antype == AnalysisType::Static);
+        if static_run {
+            check_static(deck, &mut world, &joints, &d_joints, options.backend)?;
+        }
+
         // Initial velocities: least-squares rigid velocity per body, unspecified DOFs 0 as in
         // ANSYS.
         let mut ic_bodies: BTreeSet<usize> = BTreeSet::new();
@@ -757,6 +774,13 @@ impl DeckModel {
                         deck.file, ic.line, ic.node
                     ));
                 }
+                continue;
+            }
+            if static_run {
+                notes.push(format!(
+                    "{}:{}: IC: a static run has no velocities: ignored",
+                    deck.file, ic.line
+                ));
                 continue;
             }
             ic_bodies.insert(b);
@@ -835,6 +859,7 @@ impl DeckModel {
             prev_f: BTreeMap::new(),
             prev_acel: [0.0; 3],
             forced_bodies: BTreeSet::new(),
+            static_run,
         };
         // Gravity at time 0 (a stepped ACEL of the first load step acts from the start).
         if let Some(ls) = deck.load_steps.first()
@@ -1045,8 +1070,14 @@ impl DeckModel {
     }
 
     /// One output step: gravity and nodal forces at the middle of the step, then the world's
-    /// step.
+    /// step; in a static run (`ANTYPE,STATIC`) the loads at the end of the step and a position
+    /// solve ([`Mpc184World::static_step`]).
     pub fn step(&mut self) -> Result<(), Error> {
+        if self.static_run {
+            let t = self.world.time() + self.world.settings().dt;
+            self.apply_time_loads(t);
+            return self.world.static_step().map(|_| ());
+        }
         let t = self.world.time() + 0.5 * self.world.settings().dt;
         self.apply_time_loads(t);
         self.world.step()
@@ -1099,18 +1130,81 @@ impl DeckModel {
     }
 }
 
-/// Time stepping of every load step.
-fn plan_steps(deck: &Deck) -> Result<Vec<StepPlan>, Error> {
-    let mut out = Vec::new();
-    let mut start = 0.0;
+/// `ANTYPE,STATIC` runs a kinematically driven mechanism only: on the Lagrange backend, with no
+/// free DOF left in any load step once the drives it sets (`DJ`, nonzero `D`) are counted
+/// (6 per moving body minus the rank of the constraint Jacobian, at the initial pose).
+fn check_static(
+    deck: &Deck,
+    world: &mut Mpc184World,
+    joints: &[DeckJoint],
+    d_joints: &[NodalDrive],
+    backend: Backend,
+) -> Result<(), Error> {
     for ls in &deck.load_steps {
-        if ls.antype == AnalysisType::Static {
+        if backend != Backend::Lagrange {
             return Err(unsupported(
                 deck,
                 ls.line,
                 "SOLVE",
-                "a static analysis (ANTYPE,STATIC, the ANSYS default)",
-                "this reader runs rigid multibody dynamics: give ANTYPE,TRANS before SOLVE",
+                format!("a static analysis on the {} backend", backend.name()),
+                "the static position solve runs on the Lagrange backend",
+            ));
+        }
+        let mut drives: Vec<(JointId, Dof)> = ls
+            .dj
+            .iter()
+            .filter_map(|m| {
+                joints
+                    .iter()
+                    .find(|j| j.element == m.element)
+                    .map(|j| (j.id, dof_of(m.dof)))
+            })
+            .collect();
+        for nd in d_joints {
+            for dof in nd.driven.iter() {
+                if ls
+                    .d
+                    .iter()
+                    .any(|d| d.node == nd.node && dof_of(d.dof) == dof)
+                {
+                    drives.push((nd.id, dof));
+                }
+            }
+        }
+        let free = world
+            .mobility(&drives)
+            .map_err(|e| at_line(deck, ls.line, "SOLVE", e))?;
+        if free > 0 {
+            return Err(unsupported(
+                deck,
+                ls.line,
+                "SOLVE",
+                format!(
+                    "static equilibrium (ANTYPE,STATIC): load step {} leaves the mechanism {free} \
+                     free DOF(s) after its drives",
+                    ls.number
+                ),
+                "a static run solves the positions of a kinematically driven mechanism (no free \
+                 DOF); drive the free DOFs (DJ, D) or give ANTYPE,TRANS for dynamics",
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Time stepping of every load step.
+fn plan_steps(deck: &Deck) -> Result<Vec<StepPlan>, Error> {
+    let mut out = Vec::new();
+    let mut start = 0.0;
+    let first = deck.load_steps.first().map(|ls| ls.antype);
+    for ls in &deck.load_steps {
+        if Some(ls.antype) != first {
+            return Err(unsupported(
+                deck,
+                ls.line,
+                "SOLVE",
+                "static and transient load steps in one analysis",
+                "give the same ANTYPE (STATIC or TRANS) before every SOLVE",
             ));
         }
         let span = ls.end_time - start;
