@@ -300,7 +300,8 @@ impl Friction {
             | JointKind::Orient
             | JointKind::General { .. }
             | JointKind::Spotweld
-            | JointKind::Genb { .. } => None,
+            | JointKind::Genb { .. }
+            | JointKind::RigidLink => None,
         }
     }
 
@@ -417,6 +418,14 @@ impl Behaviour {
     /// problem (a limit on a constrained DOF, min > max, a non-finite value, a linear and a
     /// nonlinear law on one component, a bad table).
     pub fn validate(&self, kind: &JointKind) -> Result<(), (&'static str, String)> {
+        if matches!(kind, JointKind::RigidLink) && !self.is_empty() {
+            return Err((
+                "LINK",
+                "a rigid link takes no stops, locks, springs, dampers, friction or references \
+                 (it has no free DOF of its own: model the bar as a body with joints instead)"
+                    .into(),
+            ));
+        }
         let free = kind.free();
         for (field, limits) in [("SECSTOP", &self.stops), ("SECLOCK", &self.locks)] {
             for l in limits.iter() {

@@ -1,4 +1,5 @@
-//! The MPC184 joint catalogue: KEYOPT(1) = 6..19 with their KEYOPT(4) variants.
+//! The MPC184 joint catalogue: KEYOPT(1) = 6..19 with their KEYOPT(4) variants, and the
+//! pin-ended rigid link (KEYOPT(1) = 0).
 //!
 //! Node I is `1`, node J is `2` everywhere. Relative DOFs are those of J with respect to I,
 //! measured in the local coordinate system at node I (see [`crate::dof`]).
@@ -22,6 +23,13 @@
 //! | screw | 17 | SCRE | UX UY ROTX ROTY + UZ = p ROTZ | ROTZ | e3 | the pitch coupling |
 //! | spotweld | 18 | SPOT | none (6x6 spring/damper) | all | e1 | the spring/damper |
 //! | genb | 19/0, 19/1 | GENB | as general, rotations as 3-1-3 Euler angles | the rest | e1 | none |
+//! | rigid link | 0 | (none) | one row: the distance `\|x_J - x_I\| = L` (no single DOF) | none as coordinates | e1 | the distance row (no Rapier mask holds a distance) |
+//!
+//! The rigid link is a pin-ended rigid bar between node I on body 1 and node J on body 2: one
+//! equation, `|x_J - x_I|` held at its initial value, no rotational coupling. Its relative DOFs
+//! are neither constrained one by one nor free coordinates (the six are tied by the one
+//! equation), so it takes no drives, loads, stops, locks, springs or friction. Its reaction is
+//! an axial force along the link ([`crate::world::JointOutput::axial_force`]).
 
 use serde::{Deserialize, Serialize};
 
@@ -38,7 +46,8 @@ pub enum Axis {
     Z,
 }
 
-/// One MPC184 joint type (KEYOPT(1) = 6..19 with its KEYOPT(4) variant).
+/// One MPC184 joint type (KEYOPT(1) = 6..19 with its KEYOPT(4) variant), or the rigid link
+/// (KEYOPT(1) = 0).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub enum JointKind {
     /// Revolute joint (KEYOPT(1) = 6): free rotation about e1 (`Axis::X`) or e3 (`Axis::Z`).
@@ -114,6 +123,11 @@ pub enum JointKind {
         /// KEYOPT(4) = 1: translations only, every rotation free.
         translations_only: bool,
     },
+    /// Rigid link (KEYOPT(1) = 0): a pin-ended rigid bar, `|x_J - x_I|` held at its length at
+    /// time 0 (one constraint equation, no rotational coupling; the nodes must be distinct).
+    #[doc(alias = "LINK")]
+    #[doc(alias = "distance")]
+    RigidLink,
 }
 
 use Dof::{RotX, RotY, RotZ, Ux, Uy, Uz};
@@ -121,7 +135,7 @@ use Dof::{RotX, RotY, RotZ, Ux, Uy, Uz};
 impl JointKind {
     /// One representative of every variant (both axes where KEYOPT(4) matters), for exhaustive
     /// walks in tests and tables. General and genb appear with nothing released, screw with a
-    /// pitch of 0.01 m/rad.
+    /// pitch of 0.01 m/rad. The rigid link comes last (it needs distinct nodes).
     pub fn representatives() -> Vec<JointKind> {
         let mut v = Vec::new();
         for kind in [
@@ -145,6 +159,7 @@ impl JointKind {
                 released: DofMask::NONE,
                 translations_only: false,
             },
+            JointKind::RigidLink,
         ] {
             // Exhaustive match: a new variant must be listed here.
             match kind {
@@ -182,7 +197,8 @@ impl JointKind {
                 | JointKind::Orient
                 | JointKind::Spherical
                 | JointKind::Screw { .. }
-                | JointKind::Spotweld => v.push(kind),
+                | JointKind::Spotweld
+                | JointKind::RigidLink => v.push(kind),
             }
         }
         v
@@ -190,6 +206,7 @@ impl JointKind {
 
     /// Builds a kind from the element's KEYOPT(1) and KEYOPT(4), the released DOFs of
     /// `SECJOINT,RDOF` (general and genb only) and the pitch of `SECJOINT,PITC` (screw only).
+    /// KEYOPT(1) = 0 is the rigid link (its KEYOPT(4) is not read).
     pub fn from_keyopts(
         keyopt1: i64,
         keyopt4: i64,
@@ -243,20 +260,21 @@ impl JointKind {
                 released,
                 translations_only: gen_k4(keyopt4)?,
             },
-            0..=5 => {
+            0 => JointKind::RigidLink,
+            1..=5 => {
                 return Err(Error::Unsupported {
-                    what: format!("MPC184 KEYOPT(1) = {keyopt1} (rigid link, beam, slider, ...)"),
-                    hint:
-                        "only the joint types KEYOPT(1) = 6..19 are joints; rigid links and beams \
-                           are handled by the deck reader as rigid bodies"
-                            .into(),
+                    what: format!("MPC184 KEYOPT(1) = {keyopt1} (rigid beam, slider, ...)"),
+                    hint: "only the rigid link (KEYOPT(1) = 0) and the joint types KEYOPT(1) = \
+                           6..19 are joints; rigid beams are handled by the deck reader as rigid \
+                           bodies"
+                        .into(),
                 });
             }
             other => {
                 return Err(Error::InvalidKeyopt {
                     keyopt: 1,
                     value: other,
-                    reason: "MPC184 joints have KEYOPT(1) = 6..19".into(),
+                    reason: "MPC184 joints have KEYOPT(1) = 0 (rigid link) or 6..19".into(),
                 });
             }
         })
@@ -279,6 +297,7 @@ impl JointKind {
             JointKind::Screw { .. } => 17,
             JointKind::Spotweld => 18,
             JointKind::Genb { .. } => 19,
+            JointKind::RigidLink => 0,
         }
     }
 
@@ -305,11 +324,13 @@ impl JointKind {
             | JointKind::Orient
             | JointKind::Spherical
             | JointKind::Screw { .. }
-            | JointKind::Spotweld => 0,
+            | JointKind::Spotweld
+            | JointKind::RigidLink => 0,
         }
     }
 
-    /// The ANSYS section subtype (`SECTYPE,id,JOINT,subtype`).
+    /// The ANSYS section subtype (`SECTYPE,id,JOINT,subtype`); empty for the rigid link, which
+    /// has no joint section.
     pub const fn subtype(&self) -> &'static str {
         match self {
             JointKind::Revolute { .. } => "REVO",
@@ -326,6 +347,7 @@ impl JointKind {
             JointKind::Screw { .. } => "SCRE",
             JointKind::Spotweld => "SPOT",
             JointKind::Genb { .. } => "GENB",
+            JointKind::RigidLink => "",
         }
     }
 
@@ -349,11 +371,13 @@ impl JointKind {
             JointKind::Screw { .. } => "screw",
             JointKind::Spotweld => "spotweld",
             JointKind::Genb { .. } => "genb",
+            JointKind::RigidLink => "rigid link",
         }
     }
 
     /// The relative DOFs held fixed by plain (uncoupled) constraint rows. The screw's UZ, tied
-    /// to ROTZ by the pitch, is not in this set: see [`JointKind::coupled`].
+    /// to ROTZ by the pitch, is not in this set: see [`JointKind::coupled`]. The rigid link
+    /// holds no single DOF (its one row is the distance).
     pub const fn constrained(&self) -> DofMask {
         match self {
             JointKind::Revolute { axis: Axis::X } => DofMask::of(&[Ux, Uy, Uz, RotY, RotZ]),
@@ -385,7 +409,7 @@ impl JointKind {
                 free.complement()
             }
             JointKind::Screw { .. } => DofMask::of(&[Ux, Uy, RotX, RotY]),
-            JointKind::Spotweld => DofMask::NONE,
+            JointKind::Spotweld | JointKind::RigidLink => DofMask::NONE,
         }
     }
 
@@ -397,8 +421,12 @@ impl JointKind {
         }
     }
 
-    /// The relative DOFs left free (independent coordinates of the joint).
+    /// The relative DOFs left free (independent coordinates of the joint). None for the rigid
+    /// link: its six relative DOFs are tied together by the distance, none is a coordinate.
     pub const fn free(&self) -> DofMask {
+        if let JointKind::RigidLink = self {
+            return DofMask::NONE;
+        }
         let c = self.constrained();
         match self.coupled() {
             Some((slave, _)) => DofMask(c.complement().0 & !(1 << slave.index())),
@@ -406,9 +434,15 @@ impl JointKind {
         }
     }
 
-    /// Number of scalar constraint equations (the screw coupling counts as one).
+    /// Number of scalar constraint equations (the screw coupling and the rigid link's distance
+    /// count as one each).
     pub const fn constraint_count(&self) -> usize {
-        self.constrained().count() + if self.coupled().is_some() { 1 } else { 0 }
+        let extra = match self {
+            JointKind::RigidLink => 1,
+            _ if self.coupled().is_some() => 1,
+            _ => 0,
+        };
+        self.constrained().count() + extra
     }
 
     /// The axis of frame I (0 = e1, 2 = e3) that is mapped onto Rapier's principal X axis.

@@ -98,6 +98,18 @@ pub enum Error {
         /// What diverged (names the joint or body).
         reason: String,
     },
+    /// A static analysis ([`crate::Mpc184World::static_step`]) of a mechanism that still has
+    /// free DOFs after its drives: static equilibrium under loads is not supported, only the
+    /// position analysis of a kinematically driven mechanism.
+    #[error(
+        "static equilibrium is not supported: the mechanism has {free_dofs} free DOF(s) left \
+         after its drives (a static run solves the positions of a kinematically driven \
+         mechanism only; drive the free DOFs or run a transient analysis)"
+    )]
+    StaticEquilibrium {
+        /// Free DOFs: 6 per dynamic body minus the rank of the constraint Jacobian with the drives.
+        free_dofs: usize,
+    },
     /// An APDL deck that could not be read.
     #[error(transparent)]
     Deck(#[from] crate::deck::DeckError),

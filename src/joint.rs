@@ -78,6 +78,22 @@ impl Mpc184Joint {
         Self::new(JointKind::Revolute { axis }, at)
     }
 
+    /// A rigid link (KEYOPT(1) = 0): a pin-ended rigid bar from `node1` (on body 1, node I) to
+    /// `node2` (on body 2, node J), global, m; its length is their distance. A grounded side
+    /// is the ground at its own node (unlike the joints, whose grounded node is taken at the
+    /// other one). Frame I (for output) is the global axes unless set with
+    /// [`Mpc184Joint::with_axes`].
+    ///
+    /// ```
+    /// use rapier3d_mpc184::prelude::*;
+    /// let bar = Mpc184Joint::rigid_link(Vector::ZERO, Vector::new(0.0, -1.0, 0.0));
+    /// assert_eq!(bar.kind.constraint_count(), 1);
+    /// ```
+    #[doc(alias = "LINK")]
+    pub fn rigid_link(node1: Vector, node2: Vector) -> Self {
+        Self::new(JointKind::RigidLink, node1).with_node2(node2)
+    }
+
     /// Sets the local system at I (and at J unless set separately).
     #[must_use]
     pub fn with_axes(mut self, axes1: Rotation) -> Self {

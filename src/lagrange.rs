@@ -503,7 +503,7 @@ impl Mpc184World {
                 }
                 ls.kin[r] = kin;
                 let k_pen = match row {
-                    RowKind::Linear { .. } | RowKind::Screw { .. } => kd,
+                    RowKind::Linear { .. } | RowKind::Screw { .. } | RowKind::Distance { .. } => kd,
                     RowKind::Drive { .. } => None,
                     RowKind::Angular { .. } => kr,
                 };
@@ -591,9 +591,17 @@ impl Mpc184World {
                 Some(i) => (ls.st[i].pose * e.low[1]).translation,
                 None => (*self.physics.bodies[e.body2].position() * e.low[1]).translation,
             };
+            // A rigid link's force acts on body 1 at node I, the other end of the bar.
+            let link = matches!(e.joint.kind, crate::catalogue::JointKind::RigidLink);
             {
-                for i in slots.into_iter().flatten() {
-                    let r = (p - ls.st[i].com).length();
+                for (side, i) in slots.into_iter().enumerate() {
+                    let Some(i) = i else { continue };
+                    let at = if link && side == 0 {
+                        (ls.st[i].pose * e.low[0]).translation
+                    } else {
+                        p
+                    };
+                    let r = (at - ls.st[i].com).length();
                     load[i].0 += force * r;
                     load[i].1 = load[i].1.max(r);
                 }
@@ -1071,7 +1079,8 @@ impl Mpc184World {
                     RowKind::Drive { dof, reference, .. } => {
                         *reference = crate::rows::dof_measure(&f, *dof, *reference);
                     }
-                    RowKind::Linear { .. } | RowKind::Angular { .. } => {}
+                    RowKind::Linear { .. } | RowKind::Angular { .. } | RowKind::Distance { .. } => {
+                    }
                 }
             }
         }

@@ -17,6 +17,7 @@ pub mod metrics;
 pub mod rows;
 pub mod scenes;
 pub mod solver;
+pub mod statics;
 pub mod world;
 
 pub use error::{Error, JointId};

@@ -18,6 +18,11 @@
 //!   for a single locked rotation with two free ones (universal, some general joints), where the
 //!   ANSYS constraint is a Bryant angle: such kinds are `Unsupported` on the Rapier backends
 //!   (the multibody backend would also panic on two free angular DOFs).
+//! - **Rigid link.** A distance `|x_J - x_I| = L` is no set of locked axes. Rapier's nearest
+//!   construct, the rope joint (a coupled linear limit), holds only the maximum distance (it
+//!   goes slack under compression) and multibody joints ignore coupled axes, so neither is
+//!   exact: the rigid link is `Unsupported` on both Rapier backends. On them, model the bar as a
+//!   body with spherical joints at its ends.
 
 use crate::catalogue::JointKind;
 use crate::dof::{Dof, DofMask};
@@ -148,6 +153,16 @@ pub fn lower(
             hint: "a spotweld has no rigid rows, only TB,JOIN stiffness; use the Lagrange backend"
                 .into(),
         }),
+        JointKind::RigidLink => Err(Error::Unsupported {
+            what: format!(
+                "a rigid link (distance constraint, KEYOPT(1) = 0) on the {} backend",
+                backend.name()
+            ),
+            hint: "Rapier joints lock axes and cannot hold a distance (its rope joint only \
+                   bounds it from above); use the Lagrange backend, or model the bar as a body \
+                   with spherical joints (KEYOPT(1) = 15) at its ends"
+                .into(),
+        }),
     }
 }
 
@@ -182,7 +197,8 @@ fn lagrange_support(kind: &JointKind) -> Result<(), Error> {
         | JointKind::General { .. }
         | JointKind::Screw { .. }
         | JointKind::Spotweld
-        | JointKind::Genb { .. } => Ok(()),
+        | JointKind::Genb { .. }
+        | JointKind::RigidLink => Ok(()),
     }
 }
 

@@ -19,6 +19,12 @@
 //! the relative rotation about e3, unwrapped past +-pi from the last known value), with
 //! `J1 = (-e3, -(p2 - c1) x e3 + p e3)`, `J2 = (e3, (p2 - c2) x e3 - p e3)`.
 //!
+//! The rigid link (KEYOPT(1) = 0) has one row, measured between node I itself (frame 1 then sits
+//! at node I, not at node J's initial position) and node J: the distance
+//! `|p2 - p1| - L = 0` with `L` its value at time 0 and `n = (p2 - p1) / |p2 - p1|`,
+//! `J1 = (-n, -(p1 - c1) x n)`, `J2 = (n, (p2 - c2) x n)`. Its multiplier is the axial force
+//! (positive pushes the nodes apart).
+//!
 //! A row's Jacobian acts on body velocities `(v, w)` (world frame, at the centre of mass):
 //! linear rows `J1 = (-e, -(p2 - c1) x e)`, `J2 = (e, (p2 - c2) x e)`; angular rows with
 //! `n = a x b`: `J1 = (0, n)`, `J2 = (0, -n)`. A multiplier `lambda` applies `J^T lambda`
@@ -56,6 +62,11 @@ pub enum RowKind {
         initial: Real,
         /// The last unwrapped absolute measure (rotations about e1 and e3).
         reference: Real,
+    },
+    /// The rigid link's distance `|p2 - p1| - length` (frame 1 at node I).
+    Distance {
+        /// The length held: `|p2 - p1|` at time 0 (m).
+        length: Real,
     },
     /// The screw coupling `e3 . (p2 - p1) - pitch * (theta - theta0)`.
     Screw {
@@ -129,15 +140,19 @@ pub fn lock_rows(constrained: DofMask) -> impl Iterator<Item = (Dof, RowKind)> {
     constrained.iter().map(|d| (d, RowKind::lock(d)))
 }
 
-/// Every row of a joint kind: its lock rows and, for the screw, the coupling row.
+/// Every row of a joint kind: its lock rows and, for the screw, the coupling row; for the rigid
+/// link the distance row (its length set from the initial positions when the joint is
+/// inserted).
 pub fn joint_rows(kind: &crate::catalogue::JointKind) -> Vec<RowKind> {
     let mut rows: Vec<RowKind> = lock_rows(kind.constrained()).map(|(_, r)| r).collect();
-    if let crate::catalogue::JointKind::Screw { pitch } = kind {
-        rows.push(RowKind::Screw {
+    match kind {
+        crate::catalogue::JointKind::Screw { pitch } => rows.push(RowKind::Screw {
             pitch: *pitch,
             reference: 0.0,
             theta0: 0.0,
-        });
+        }),
+        crate::catalogue::JointKind::RigidLink => rows.push(RowKind::Distance { length: 0.0 }),
+        _ => {}
     }
     rows
 }
@@ -181,6 +196,18 @@ impl RowKind {
                     value: e.dot(d),
                     j1: [-e, -(f.p2 - f.c1).cross(e)],
                     j2: [e, (f.p2 - f.c2).cross(e)],
+                }
+            }
+            RowKind::Distance { length } => {
+                let d = f.p2 - f.p1;
+                let len = d.length();
+                // At zero length the direction is undefined: take e1 of frame 1 (a link is
+                // built with distinct nodes, so this only guards against a collapse).
+                let n = if len > 0.0 { d / len } else { f.r1.col(0) };
+                RowEval {
+                    value: len - length,
+                    j1: [-n, -(f.p1 - f.c1).cross(n)],
+                    j2: [n, (f.p2 - f.c2).cross(n)],
                 }
             }
             RowKind::Screw {

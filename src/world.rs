@@ -317,6 +317,20 @@ impl JointOutput {
     pub fn dof(&self, dof: Dof) -> Real {
         self.dofs()[dof.index()]
     }
+
+    /// The force on node J along the line from node I to node J, positive in tension (N): the
+    /// axial force of a rigid link, whose whole reaction it is (its force lies along the link
+    /// and its moment is zero). Computed from [`JointOutput::force`] and the current relative
+    /// position [`JointOutput::measure`] (both in frame I); 0 when the nodes coincide.
+    pub fn axial_force(&self) -> Real {
+        let u = Vector::new(self.measure[0], self.measure[1], self.measure[2]);
+        let len = u.length();
+        if len > 0.0 {
+            -self.force.dot(u) / len
+        } else {
+            0.0
+        }
+    }
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -389,6 +403,8 @@ pub struct Mpc184World {
     started: bool,
     recovery: Option<KktSolver>,
     pub(crate) ledger: crate::effects::EnergyLedger,
+    /// State of the static (position) analysis ([`crate::statics`]).
+    pub(crate) statics: crate::statics::StaticState,
 }
 
 impl Mpc184World {
@@ -411,6 +427,7 @@ impl Mpc184World {
             recovery: None,
             ledger: crate::effects::EnergyLedger::default(),
             lagrange: LagrangeState::default(),
+            statics: crate::statics::StaticState::default(),
         }
     }
 
@@ -512,12 +529,33 @@ impl Mpc184World {
             }
             _ => {}
         }
-        // The grounded side is the fixed world at the other node's location.
-        if body1.is_none() {
+        let link = matches!(joint.kind, crate::catalogue::JointKind::RigidLink);
+        // The grounded side is the fixed world at the other node's location (a rigid link's
+        // grounded node stays where it is given: the bar's pin on the ground).
+        if body1.is_none() && !link {
             joint.node1 = joint.node2;
         }
-        if body2.is_none() {
+        if body2.is_none() && !link {
             joint.node2 = joint.node1;
+        }
+        if link {
+            let length = (joint.node2 - joint.node1).length();
+            let scale = joint
+                .node1
+                .abs()
+                .max(joint.node2.abs())
+                .max_element()
+                .max(1.0);
+            if length.is_nan() || length <= 1e3 * Real::EPSILON * scale {
+                return Err(Error::DegenerateFrame {
+                    joint: id,
+                    node: 2,
+                    reason: format!(
+                        "a rigid link needs distinct nodes (length {length:e} m): its direction \
+                         is undefined"
+                    ),
+                });
+            }
         }
         // On the Lagrange backend the Rapier joint starts with no locked axis; where a contact
         // can act, the Lagrange topology pass gives it the joint's own rows: they do no work on
@@ -541,7 +579,8 @@ impl Mpc184World {
         // Rapier's frames coincide at time 0 (both with frame I's axes); our rows measure frame
         // 2 with the local system at J itself and hold each row's initial value (crate::rows).
         let rapier_frames = [pose1.inverse() * low_world, pose2.inverse() * low_world];
-        let low = [rapier_frames[0], ansys2];
+        // A rigid link measures its distance from node I itself.
+        let low = [if link { ansys1 } else { rapier_frames[0] }, ansys2];
         let q = lower::principal_rotation(joint.kind.principal_axis());
         let generic = GenericJointBuilder::new(mask)
             .local_frame1(rapier_frames[0] * q)
@@ -606,6 +645,9 @@ impl Mpc184World {
                     } => {
                         *theta0 = rows::screw_angle(&f0, 0.0);
                         *reference = *theta0;
+                    }
+                    RowKind::Distance { length } => {
+                        *length = (f0.p2 - f0.p1).length();
                     }
                     RowKind::Linear { .. } | RowKind::Drive { .. } => {}
                 }
@@ -1221,7 +1263,7 @@ impl Mpc184World {
         ([u.x, u.y, u.z, ang[0], ang[1], ang[2]], ang)
     }
 
-    fn refresh_output(&mut self, i: usize) {
+    pub(crate) fn refresh_output(&mut self, i: usize) {
         let Some(e) = &self.joints[i] else { return };
         let (mut m, wrapped) = self.measures(e);
         let p1 = *self.physics.bodies[e.body1].position();
@@ -1238,7 +1280,9 @@ impl Mpc184World {
         for r in &e.rows {
             let c = r.eval(&fp).value.abs();
             match r {
-                RowKind::Linear { .. } | RowKind::Screw { .. } => gap = gap.max(c),
+                RowKind::Linear { .. } | RowKind::Screw { .. } | RowKind::Distance { .. } => {
+                    gap = gap.max(c);
+                }
                 // A drive's error is a tracking error, not a gap.
                 RowKind::Drive { .. } => {}
                 RowKind::Angular { .. } => angular_gap = angular_gap.max(c),

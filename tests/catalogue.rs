@@ -10,7 +10,9 @@
 //!   nor plainly locked: it is tied to ROTZ by the pitch, which is its fifth equation).
 //! - General (16) and genb (19) for all 64 `SECJOINT,RDOF` release sets, with KEYOPT(4) = 0 and 1
 //!   (KEYOPT(4) = 1: the nodes carry displacements only, so every rotation is free as well).
-//! - `from_keyopts` round-trips; KEYOPT(1) = 0..=5 (links, beams) is `Error::Unsupported`, any
+//! - The rigid link (KEYOPT(1) = 0): no section subtype, one equation (the distance), no DOF
+//!   constrained alone and none free, not expressible by a Rapier mask.
+//! - `from_keyopts` round-trips; KEYOPT(1) = 1..=5 (beams, sliders) is `Error::Unsupported`, any
 //!   other value outside 6..=19 and KEYOPT(4) outside {0, 1} on a kind with a KEYOPT(4)
 //!   variant is `Error::InvalidKeyopt` naming the KEYOPT and the value.
 //! - Lowering to Rapier (both backends, Lagrange): Rapier's joint X is the principal axis, e1 for
@@ -147,6 +149,11 @@ fn expected(kind: &JointKind) -> Expected {
         // Plain locks: UX UY ROTX ROTY; UZ is the pitch-coupled one, ROTZ the only free DOF.
         JointKind::Screw { .. } => row(17, 0, "SCRE", &[Ux, Uy, RotX, RotY], &[RotZ], 2, false),
         JointKind::Spotweld => row(18, 0, "SPOT", &[], &ALL_DOFS, 0, false),
+        // One distance equation; no DOF is locked alone or a free coordinate, no section.
+        JointKind::RigidLink => Expected {
+            equations: 1,
+            ..row(0, 0, "", &[], &[], 0, false)
+        },
         JointKind::Genb {
             released,
             translations_only,
@@ -263,8 +270,9 @@ fn representatives_cover_every_table_row() {
         })
         .collect();
     got.sort_unstable();
-    // Every KEYOPT(1) 6..19 once, plus the KEYOPT(4) = 1 variants of 6, 11, 12, 16 and 19.
-    let mut want: Vec<(i64, i64)> = (6..=19).map(|k1| (k1, 0)).collect();
+    // The rigid link (0), every KEYOPT(1) 6..19 once, plus the KEYOPT(4) = 1 variants of 6,
+    // 11, 12, 16 and 19.
+    let mut want: Vec<(i64, i64)> = std::iter::once(0).chain(6..=19).map(|k1| (k1, 0)).collect();
     want.extend([(6, 1), (11, 1), (12, 1), (16, 1), (19, 1)]);
     want.sort_unstable();
     assert_eq!(
@@ -342,6 +350,7 @@ fn every_kind_matches_the_table() {
         let neither = members(DofMask(!(kind.constrained().0 | kind.free().0) & 0b11_1111));
         let want_neither = match kind {
             JointKind::Screw { .. } => vec![Uz],
+            JointKind::RigidLink => ALL_DOFS.to_vec(),
             _ => vec![],
         };
         assert_eq!(
@@ -448,7 +457,7 @@ fn from_keyopts_round_trips() {
 
 #[test]
 fn invalid_keyopts_give_typed_errors() {
-    for k1 in 0..=5 {
+    for k1 in 1..=5 {
         let r = JointKind::from_keyopts(k1, 0, DofMask::NONE, 0.0);
         assert!(
             matches!(r, Err(Error::Unsupported { .. })),
@@ -541,7 +550,8 @@ fn lowering_to_rapier() {
 
 #[test]
 fn unsupported_set_is_exactly_the_expected_one() {
-    // Among the representatives: universal, screw, spotweld (general/genb representatives lock
+    // Among the representatives: universal, screw, spotweld, the rigid link (a distance is no
+    // locked-axes mask; general/genb representatives lock
     // 0 or 3 rotations and are supported).
     let mut unsupported: Vec<&str> = JointKind::representatives()
         .iter()
@@ -549,7 +559,7 @@ fn unsupported_set_is_exactly_the_expected_one() {
         .map(|k| k.name())
         .collect();
     unsupported.sort_unstable();
-    let want = vec!["screw", "spotweld", "universal"];
+    let want = vec!["rigid link", "screw", "spotweld", "universal"];
     assert_eq!(
         unsupported, want,
         "unsupported {unsupported:?} vs expected {want:?}"

@@ -92,16 +92,17 @@ fn unsupported_element_exits_2_with_its_hint() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("beam.inp:2: ET: unsupported"), "{err}");
     assert!(err.contains("hint: rigid multibody only"), "{err}");
-    // A rigid link is caught by the builder, with its line and hint.
+    // An initial displacement is caught by the builder, with its line and hint (the rigid link
+    // before it is accepted).
     std::fs::write(
         &deck,
-        "/PREP7\nET,1,MPC184,0\nET,2,MASS21,,,2\nR,1,1\nN,1\nN,2,1\nE,1,2\nTYPE,2\nE,1\nE,2\n",
+        "/PREP7\nET,1,MPC184,0\nET,2,MASS21,,,2\nR,1,1\nN,1\nN,2,1\nE,1,2\nTYPE,2\nE,1\nE,2\n/SOLU\nIC,2,UX,0.1\n",
     )
     .unwrap();
     let out = bin().arg("check").arg(&deck).output().unwrap();
     assert_eq!(out.status.code(), Some(2));
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("beam.inp:7: E: unsupported"), "{err}");
+    assert!(err.contains("beam.inp:12: IC: unsupported"), "{err}");
     assert!(err.contains("hint:"), "{err}");
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -585,10 +585,12 @@ fn every_shipped_deck_parses() {
             "double_pendulum",
             "friction_incline",
             "general_rdof",
+            "link_swing",
             "pendulum_x",
             "pendulum_z",
             "screw_jack",
             "slider_crank",
+            "slider_crank_static",
             "stops_locks"
         ]
     );

@@ -8,6 +8,7 @@
 //! | a body without mass | fixed if one of its nodes has `D,node,ALL,0`; otherwise an error naming the node |
 //! | `D,node,ALL,0` (all six labels 0 in every load step) | the node's body is a Rapier fixed body |
 //! | other `D` (a subset of labels, or nonzero values) | a grounded MPC184 general joint at the node, global axes (ground = I, the node's body = J): the labels held at 0 in every load step are its constraints; a label with a nonzero value in some load step is released and driven ([`Mpc184World::set_drive`], relative to time 0: the node's displacement or Bryant rotation), ramped (`KBC,0`) or stepped (`KBC,1`) from the previous load step's value; the set of labels of a node must stay the same in every load step |
+//! | MPC184 rigid links (KEYOPT(1) = 0) | a [`JointKind::RigidLink`] between the bodies of its two nodes (a distance row, frame I the global axes; KEYOPT(2) 0 or 1 both exact) |
 //! | MPC184 joints (KEYOPT(1) = 6..19) | [`Mpc184Joint`]: kind (KEYOPT(1), (4), `SECJOINT,RDOF`, `PITC`), method (KEYOPT(2), `PNLT`), frames (`SECJOINT,LSYS`), `SECSTOP`, `SECLOCK`, `SECDATA`, `TB,JOIN` STIF DAMP JNS* JND* |
 //! | `TB,JOIN` friction options (MUS*, EXP*, SL*, SK*, TMX*, FI*) with `SECJOINT,FRIC` | [`crate::behaviour::Friction`] on the joint (the raw tables also kept in [`DeckJoint::friction`]); SK/SL are recorded, stick is exact |
 //! | `ACEL` | world gravity = -ACEL |
@@ -16,10 +17,17 @@
 //! | `F` | a Rapier user force (and torque) on the node's body at the node, re-applied every step |
 //! | `IC` velocities | the body's rigid velocity, least-squares fitted to its nodes' velocities |
 //! | `TIME`, `DELTIM`, `NSUBST`, `KBC` | the time step, the number of output steps, ramped or stepped profiles |
+//! | `ANTYPE,STATIC` | [`Mpc184World::static_step`] per output step (kinematically driven mechanisms only) |
 //!
-//! Everything else is an error that names the deck line (`FILE:LINE: COMMAND: what`): rigid
-//! links (KEYOPT(1) = 0: a distance constraint this crate has no row for), `D` whose set of
-//! labels changes between load steps, `ANTYPE,STATIC`, initial displacements.
+//! Everything else is an error that names the deck line (`FILE:LINE: COMMAND: what`): `D`
+//! whose set of labels changes between load steps, `ANTYPE,STATIC` on a mechanism with a free
+//! DOF (see below), initial displacements.
+//!
+//! `ANTYPE,STATIC` (in every load step, not mixed with `TRANS`): each output step is a position
+//! solve of the driven mechanism at that time ([`crate::statics`]: masses ignored, bodies at
+//! rest, reactions from statics with gravity, `F`, `FJ` and springs); a mechanism with a free
+//! DOF after its drives is an error naming the `SOLVE` line and the free DOF count, as is a
+//! static run on a Rapier backend. `IC` velocities are ignored there (a note says so).
 //!
 //! Point masses: a body whose MASS21 elements give it no rotary inertia about some axis (point
 //! masses on a line, or a single point mass) gets `1e-6 m r^2` on that axis (`r` the largest
@@ -174,6 +182,8 @@ pub struct DeckModel {
     prev_f: BTreeMap<(u32, ForceLabel), f64>,
     prev_acel: [f64; 3],
     forced_bodies: BTreeSet<usize>,
+    /// `ANTYPE,STATIC`: every step is a position solve ([`Mpc184World::static_step`]).
+    static_run: bool,
 }
 
 fn err(deck: &Deck, line: usize, command: &str, kind: DeckErrorKind) -> Error {
@@ -391,21 +401,8 @@ impl DeckModel {
                     };
                     uf.union(i, j);
                 }
-                Some(ElementRole::RigidLink) => {
-                    return Err(unsupported(
-                        deck,
-                        e.line,
-                        "E",
-                        format!(
-                            "element {}: MPC184 rigid link (KEYOPT(1) = 0), a pin-ended distance \
-                             constraint",
-                            e.id
-                        ),
-                        "this crate has no distance row yet: model the bar as a body (MPC184 \
-                         rigid beams, KEYOPT(1) = 1, to a MASS21) with spherical joints \
-                         (KEYOPT(1) = 15) at its ends",
-                    ));
-                }
+                // A pin-ended distance constraint between two bodies: a joint (below).
+                Some(ElementRole::RigidLink) => {}
                 Some(ElementRole::Mass) => {
                     let Some(node) = e.i.or(e.j) else {
                         return Err(invalid(
@@ -491,7 +488,10 @@ impl DeckModel {
         // Nodes that matter: on joints, loads and initial conditions.
         let mut used: BTreeMap<u32, (usize, &'static str)> = BTreeMap::new();
         for e in deck.elements.values() {
-            if deck.role_of(e) == Some(ElementRole::Joint) {
+            if matches!(
+                deck.role_of(e),
+                Some(ElementRole::Joint | ElementRole::RigidLink)
+            ) {
                 for n in [e.i, e.j].into_iter().flatten() {
                     used.entry(n).or_insert((e.line, "E"));
                 }
@@ -640,10 +640,11 @@ impl DeckModel {
         // Joints.
         let mut joints = Vec::new();
         for e in deck.elements.values() {
-            if deck.role_of(e) != Some(ElementRole::Joint) {
-                continue;
-            }
-            let dj = build_joint(deck, e, &node_body, &bodies, &mut notes)?;
+            let dj = match deck.role_of(e) {
+                Some(ElementRole::Joint) => build_joint(deck, e, &node_body, &bodies, &mut notes)?,
+                Some(ElementRole::RigidLink) => build_link(deck, e, &mut notes)?,
+                _ => continue,
+            };
             let b = |n: Option<u32>| n.and_then(|n| node_body.get(&n).and_then(|x| x.0));
             let (b1, b2) = (b(e.i), b(e.j));
             let fixed = |x: Option<usize>| x.is_none_or(|i| bodies[i].fixed);
@@ -740,6 +741,14 @@ impl DeckModel {
             });
         }
 
+        let static_run = deck
+            .load_steps
+            .first()
+            .is_some_and(|ls| ls.antype == AnalysisType::Static);
+        if static_run {
+            check_static(deck, &mut world, &joints, &d_joints, options.backend)?;
+        }
+
         // Initial velocities: least-squares rigid velocity per body, unspecified DOFs 0 as in
         // ANSYS.
         let mut ic_bodies: BTreeSet<usize> = BTreeSet::new();
@@ -769,6 +778,13 @@ impl DeckModel {
                         deck.file, ic.line, ic.node
                     ));
                 }
+                continue;
+            }
+            if static_run {
+                notes.push(format!(
+                    "{}:{}: IC: a static run has no velocities: ignored",
+                    deck.file, ic.line
+                ));
                 continue;
             }
             ic_bodies.insert(b);
@@ -847,6 +863,7 @@ impl DeckModel {
             prev_f: BTreeMap::new(),
             prev_acel: [0.0; 3],
             forced_bodies: BTreeSet::new(),
+            static_run,
         };
         // Gravity at time 0 (a stepped ACEL of the first load step acts from the start).
         if let Some(ls) = deck.load_steps.first()
@@ -1057,8 +1074,14 @@ impl DeckModel {
     }
 
     /// One output step: gravity and nodal forces at the middle of the step, then the world's
-    /// step.
+    /// step; in a static run (`ANTYPE,STATIC`) the loads at the end of the step and a position
+    /// solve ([`Mpc184World::static_step`]).
     pub fn step(&mut self) -> Result<(), Error> {
+        if self.static_run {
+            let t = self.world.time() + self.world.settings().dt;
+            self.apply_time_loads(t);
+            return self.world.static_step().map(|_| ());
+        }
         let t = self.world.time() + 0.5 * self.world.settings().dt;
         self.apply_time_loads(t);
         self.world.step()
@@ -1111,18 +1134,81 @@ impl DeckModel {
     }
 }
 
-/// Time stepping of every load step.
-fn plan_steps(deck: &Deck) -> Result<Vec<StepPlan>, Error> {
-    let mut out = Vec::new();
-    let mut start = 0.0;
+/// `ANTYPE,STATIC` runs a kinematically driven mechanism only: on the Lagrange backend, with no
+/// free DOF left in any load step once the drives it sets (`DJ`, nonzero `D`) are counted
+/// (6 per moving body minus the rank of the constraint Jacobian, at the initial pose).
+fn check_static(
+    deck: &Deck,
+    world: &mut Mpc184World,
+    joints: &[DeckJoint],
+    d_joints: &[NodalDrive],
+    backend: Backend,
+) -> Result<(), Error> {
     for ls in &deck.load_steps {
-        if ls.antype == AnalysisType::Static {
+        if backend != Backend::Lagrange {
             return Err(unsupported(
                 deck,
                 ls.line,
                 "SOLVE",
-                "a static analysis (ANTYPE,STATIC, the ANSYS default)",
-                "this reader runs rigid multibody dynamics: give ANTYPE,TRANS before SOLVE",
+                format!("a static analysis on the {} backend", backend.name()),
+                "the static position solve runs on the Lagrange backend",
+            ));
+        }
+        let mut drives: Vec<(JointId, Dof)> = ls
+            .dj
+            .iter()
+            .filter_map(|m| {
+                joints
+                    .iter()
+                    .find(|j| j.element == m.element)
+                    .map(|j| (j.id, dof_of(m.dof)))
+            })
+            .collect();
+        for nd in d_joints {
+            for dof in nd.driven.iter() {
+                if ls
+                    .d
+                    .iter()
+                    .any(|d| d.node == nd.node && dof_of(d.dof) == dof)
+                {
+                    drives.push((nd.id, dof));
+                }
+            }
+        }
+        let free = world
+            .mobility(&drives)
+            .map_err(|e| at_line(deck, ls.line, "SOLVE", e))?;
+        if free > 0 {
+            return Err(unsupported(
+                deck,
+                ls.line,
+                "SOLVE",
+                format!(
+                    "static equilibrium (ANTYPE,STATIC): load step {} leaves the mechanism {free} \
+                     free DOF(s) after its drives",
+                    ls.number
+                ),
+                "a static run solves the positions of a kinematically driven mechanism (no free \
+                 DOF); drive the free DOFs (DJ, D) or give ANTYPE,TRANS for dynamics",
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Time stepping of every load step.
+fn plan_steps(deck: &Deck) -> Result<Vec<StepPlan>, Error> {
+    let mut out = Vec::new();
+    let mut start = 0.0;
+    let first = deck.load_steps.first().map(|ls| ls.antype);
+    for ls in &deck.load_steps {
+        if Some(ls.antype) != first {
+            return Err(unsupported(
+                deck,
+                ls.line,
+                "SOLVE",
+                "static and transient load steps in one analysis",
+                "give the same ANTYPE (STATIC or TRANS) before every SOLVE",
             ));
         }
         let span = ls.end_time - start;
@@ -1168,6 +1254,60 @@ fn plan_steps(deck: &Deck) -> Result<Vec<StepPlan>, Error> {
 }
 
 type BuiltJoint = (Mpc184Joint, Option<FrictionData>);
+
+/// An MPC184 rigid link (KEYOPT(1) = 0): a distance row between its two nodes, frame I the
+/// global axes. KEYOPT(2) (ANSYS: 0 direct elimination, 1 Lagrange multiplier) makes no
+/// difference here: the constraint is exact either way.
+fn build_link(
+    deck: &Deck,
+    e: &crate::deck::model::Element,
+    notes: &mut Vec<String>,
+) -> Result<BuiltJoint, Error> {
+    let pos = |n: Option<u32>| -> Result<Vector, Error> {
+        let n = n.ok_or_else(|| {
+            invalid(
+                deck,
+                e.line,
+                "E",
+                format!("rigid link element {} needs both nodes I and J", e.id),
+            )
+        })?;
+        deck.nodes.get(&n).map(|x| vec3(x.position)).ok_or_else(|| {
+            err(
+                deck,
+                e.line,
+                "E",
+                DeckErrorKind::MissingReference {
+                    what: format!("node {n} is not defined"),
+                },
+            )
+        })
+    };
+    let (p1, p2) = (pos(e.i)?, pos(e.j)?);
+    if (p2 - p1).length() <= 0.0 {
+        return Err(invalid(
+            deck,
+            e.line,
+            "E",
+            format!(
+                "rigid link element {}: nodes {} and {} coincide (a link needs a length)",
+                e.id,
+                e.i.unwrap_or(0),
+                e.j.unwrap_or(0)
+            ),
+        ));
+    }
+    if let Some(et) = deck.element_type_of(e)
+        && et.keyopt(2) == 1
+    {
+        notes.push(format!(
+            "{}:{}: ET: rigid link KEYOPT(2) = 1 (Lagrange multiplier): the distance is held \
+             exactly either way",
+            deck.file, et.line
+        ));
+    }
+    Ok((Mpc184Joint::rigid_link(p1, p2), None))
+}
 
 /// The friction model from a joint's friction `TB,JOIN` tables: the law from `MUSn` (TBDATA C1,
 /// or the TBPT table against slip rate when it has points) or `EXPn` (C1..C3 = `mu_s`, `mu_d`, `c`),

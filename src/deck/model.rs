@@ -235,7 +235,7 @@ pub enum ElementName {
 pub enum ElementRole {
     /// MASS21 point mass at node I.
     Mass,
-    /// MPC184 KEYOPT(1) = 0: rigid link (nodes I and J on one rigid body).
+    /// MPC184 KEYOPT(1) = 0: rigid link (a pin-ended bar: the distance of nodes I and J held).
     RigidLink,
     /// MPC184 KEYOPT(1) = 1: rigid beam (nodes I and J on one rigid body).
     RigidBeam,
