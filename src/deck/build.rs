@@ -371,7 +371,7 @@ impl DeckModel {
         for n in deck.nodes.keys() {
             uf.find(*n);
         }
-        let mut masses: Vec<(u32, f64, [f64; 3])> = Vec::new();
+        let mut masses: Vec<(u32, f64, [f64; 3], usize)> = Vec::new();
         for e in deck.elements.values() {
             let et = deck
                 .element_type_of(e)
@@ -404,12 +404,12 @@ impl DeckModel {
                     ));
                 }
                 Some(ElementRole::Mass) => {
-                    let Some(node) = e.i.or(e.j) else {
+                    let Some(node) = e.i.or(e.j).filter(|n| deck.nodes.contains_key(n)) else {
                         return Err(invalid(
                             deck,
                             e.line,
                             "E",
-                            format!("MASS21 element {} needs a node", e.id),
+                            format!("MASS21 element {} needs a defined node", e.id),
                         ));
                     };
                     let r = deck.real_constants.get(&e.real).ok_or_else(|| {
@@ -458,7 +458,7 @@ impl DeckModel {
                     if m < 0.0 || inertia.iter().any(|x| *x < 0.0) {
                         return Err(invalid(deck, r.line, "R", "negative mass or inertia"));
                     }
-                    masses.push((node, m, inertia));
+                    masses.push((node, m, inertia, e.line));
                 }
                 Some(ElementRole::Joint) | None => {}
             }
@@ -519,7 +519,7 @@ impl DeckModel {
         for nodes in groups.values() {
             let mut m = 0.0;
             let mut mx = [0.0; 3];
-            for (node, mm, _) in &masses {
+            for (node, mm, _, _) in &masses {
                 if nodes.contains(node) {
                     let p = deck.nodes[node].position;
                     m += mm;
@@ -567,7 +567,7 @@ impl DeckModel {
                 let d = [p[0] - com[0], p[1] - com[1], p[2] - com[2]];
                 r_max = r_max.max((d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt());
             }
-            for (node, mm, ii) in &masses {
+            for (node, mm, ii, _) in &masses {
                 if !nodes.contains(node) {
                     continue;
                 }
@@ -581,6 +581,24 @@ impl DeckModel {
                         inertia[a][b] += mm * (delta - d[a] * d[b]);
                     }
                 }
+            }
+            let finite = m.is_finite()
+                && com.iter().all(|x| x.is_finite())
+                && inertia.iter().flatten().all(|x| x.is_finite());
+            if !finite {
+                let line = masses
+                    .iter()
+                    .find(|x| nodes.contains(&x.0))
+                    .map_or(0, |x| x.3);
+                return Err(invalid(
+                    deck,
+                    line,
+                    "E",
+                    format!(
+                        "body of nodes {label}: its mass, centre of mass or inertia overflows \
+                         (mass {m:e} kg): masses and coordinates are too large"
+                    ),
+                ));
             }
             let index = bodies.len();
             let (handle, principal) = if fixed || m <= 0.0 {
@@ -1316,6 +1334,38 @@ fn build_joint(
     let kind =
         JointKind::from_keyopts(k1, et.keyopt(4), released, sec.pitch.unwrap_or(0.0) as Real)
             .map_err(|x| at_line(deck, et.line, "ET", x))?;
+    if let JointKind::Screw { pitch } = kind
+        && !(pitch.is_finite() && pitch != 0.0)
+    {
+        return Err(invalid(
+            deck,
+            sec.line,
+            "SECTYPE",
+            format!(
+                "screw section {} (element {}): SECJOINT,PITC,{pitch}: the pitch must be nonzero \
+                 (a screw of zero pitch is a cylindrical joint, KEYOPT(1) = 11, with UZ locked)",
+                sec.id, e.id
+            ),
+        ));
+    }
+    if let (JointKind::Revolute { .. } | JointKind::Universal, Some(i), Some(j)) = (kind, e.i, e.j)
+    {
+        let distance = (p2 - p1).length();
+        let tolerance = crate::joint::COINCIDENCE_TOLERANCE * p1.length().max(p2.length()).max(1.0);
+        if distance > tolerance {
+            return Err(invalid(
+                deck,
+                e.line,
+                "E",
+                format!(
+                    "{} joint element {}: nodes {i} (I) and {j} (J) are {distance:e} m apart: \
+                     they must coincide (to {tolerance:e} m)",
+                    kind.name(),
+                    e.id
+                ),
+            ));
+        }
+    }
     let method = match et.keyopt(2) {
         0 => {
             if sec.penalty_displacement.is_some() || sec.penalty_rotation.is_some() {
@@ -1351,6 +1401,14 @@ fn build_joint(
                 },
             )
         })?;
+        if let Some(why) = c.defect() {
+            return Err(invalid(
+                deck,
+                c.line,
+                "LOCAL",
+                format!("coordinate system {cs} (section {}): {why}", sec.id),
+            ));
+        }
         let m = Matrix::from_cols(vec3(c.axis(0)), vec3(c.axis(1)), vec3(c.axis(2)));
         Ok(Rotation::from_mat3(&m).normalize())
     };
@@ -1487,21 +1545,42 @@ fn build_joint(
         joint = joint.with_friction(friction_model(deck, e.id, &kind, fd)?);
     }
     joint.behaviour.validate(&kind).map_err(|(field, reason)| {
-        let line = match field {
-            "SECSTOP" | "SECLOCK" => sec
-                .stops
-                .iter()
-                .chain(&sec.locks)
-                .map(|s| s.line)
-                .next()
-                .unwrap_or(sec.line),
-            _ => sec.line,
+        // The deck line and command the offending data came from.
+        let (line, command) = match field {
+            "SECSTOP" | "SECLOCK" => {
+                let list = if field == "SECSTOP" {
+                    &sec.stops
+                } else {
+                    &sec.locks
+                };
+                let bad = list
+                    .iter()
+                    .find(|r| !free.contains(dof_of(r.dof)) || r.min.is_nan() || r.max.is_nan() || r.min > r.max)
+                    .or(list.first());
+                (bad.map_or(sec.line, |r| r.line), field)
+            }
+            "GENB" => (
+                sec.stops
+                    .iter()
+                    .chain(&sec.locks)
+                    .map(|r| r.line)
+                    .next()
+                    .unwrap_or(sec.line),
+                "SECTYPE",
+            ),
+            "STIF" | "DAMP" | "JNS" | "JND" | "MUS" => (
+                deck.join_tables_of(e.material)
+                    .find(|t| t.tbopt.starts_with(field))
+                    .map_or(sec.line, |t| t.line),
+                "TB",
+            ),
+            _ => (sec.line, "SECTYPE"),
         };
         invalid(
             deck,
             line,
-            field,
-            format!("joint element {}: {reason}", e.id),
+            command,
+            format!("joint element {} ({field}): {reason}", e.id),
         )
     })?;
     Ok((joint, friction))
