@@ -1319,18 +1319,22 @@ fn mass_defect(rb: &RigidBody) -> Option<String> {
     }
     let locked = rb.locked_axes();
     let mp = &rb.mass_properties().local_mprops;
-    let translations =
-        LockedAxes::TRANSLATION_LOCKED_X | LockedAxes::TRANSLATION_LOCKED_Y | LockedAxes::TRANSLATION_LOCKED_Z;
-    if !locked.contains(translations) && !(mp.inv_mass.is_finite() && mp.inv_mass > 0.0) {
+    let translations = LockedAxes::TRANSLATION_LOCKED_X
+        | LockedAxes::TRANSLATION_LOCKED_Y
+        | LockedAxes::TRANSLATION_LOCKED_Z;
+    let has_mass = mp.inv_mass.is_finite() && mp.inv_mass > 0.0;
+    if !(has_mass || locked.contains(translations)) {
         return Some(format!(
             "a dynamic body with mass {} kg: give it mass, or make it fixed",
             mp.mass()
         ));
     }
-    let rotations =
-        LockedAxes::ROTATION_LOCKED_X | LockedAxes::ROTATION_LOCKED_Y | LockedAxes::ROTATION_LOCKED_Z;
+    let rotations = LockedAxes::ROTATION_LOCKED_X
+        | LockedAxes::ROTATION_LOCKED_Y
+        | LockedAxes::ROTATION_LOCKED_Z;
     let inv = mp.inv_principal_inertia;
-    if !locked.intersects(rotations) && !(inv.is_finite() && inv.min_element() > 0.0) {
+    let regular = inv.is_finite() && inv.min_element() > 0.0;
+    if !(regular || locked.intersects(rotations)) {
         return Some(format!(
             "a dynamic body with a singular inertia (principal moments {} kg m^2): give it \
              rotary inertia about every axis, lock the rotation, or make it fixed",

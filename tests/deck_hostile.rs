@@ -67,6 +67,7 @@ const COMMANDS: &[&str] = &[
 
 /// Field values: numbers (huge, tiny, NaN/inf spellings), expressions (unbalanced, deep),
 /// labels, ids at and past 2^32, and characters the reader treats specially.
+#[rustfmt::skip]
 const FIELDS: &[&str] = &[
     "", "0", "1", "2", "3", "4", "5", "6", "7", "8", "9", "10", "11", "12", "13", "14", "15", "16",
     "17", "18", "19", "20", "-1", "0.5", "-0", "1e308", "1e309", "-1e308", "1e-320", "1e15",
@@ -172,7 +173,7 @@ fn apply(text: &str, edits: &[Edit]) -> String {
 }
 
 proptest! {
-    #![proptest_config(config(3000))]
+    #![proptest_config(config(10_000))]
 
     /// Arbitrary bytes (invalid UTF-8 replaced).
     #[test]
@@ -194,7 +195,7 @@ proptest! {
 }
 
 proptest! {
-    #![proptest_config(config(2000))]
+    #![proptest_config(config(10_000))]
 
     /// The asset decks with lines deleted, duplicated, swapped, truncated, fields replaced by
     /// hostile values, lines inserted, or the deck cut short: most reach the builder, many run.
@@ -290,7 +291,10 @@ fn deep_expressions_are_refused_without_overflow() {
             assert!(
                 matches!(
                     e.kind,
-                    DeckErrorKind::TooDeep { field: 1 | 2, limit: MAX_DEPTH }
+                    DeckErrorKind::TooDeep {
+                        field: 1 | 2,
+                        limit: MAX_DEPTH
+                    }
                 ),
                 "{e}"
             );
@@ -300,7 +304,11 @@ fn deep_expressions_are_refused_without_overflow() {
     let deck = parse_str(&format!("X={flat}\nN,1,X/{n}\n"), FILE).unwrap();
     assert_eq!(deck.nodes[&1].position[0], 1.0);
     // Nesting up to the limit is fine: MAX_DEPTH / 2 parentheses (each also passes a sign level).
-    let ok = format!("{}7{}", "(".repeat(MAX_DEPTH / 2 - 1), ")".repeat(MAX_DEPTH / 2 - 1));
+    let ok = format!(
+        "{}7{}",
+        "(".repeat(MAX_DEPTH / 2 - 1),
+        ")".repeat(MAX_DEPTH / 2 - 1)
+    );
     let deck = parse_str(&format!("N,1,{ok}\n"), FILE).unwrap();
     assert_eq!(deck.nodes[&1].position[0], 7.0);
 }
@@ -308,7 +316,9 @@ fn deep_expressions_are_refused_without_overflow() {
 /// Values that are not finite numbers: overflow, NaN and inf spellings, division by zero.
 #[test]
 fn non_finite_values_are_typed_errors() {
-    for v in ["1e309", "-1e309", "1e308*10", "1/0", "0/0", "SQRT(-1)", "LOG(0)", "2**1024"] {
+    for v in [
+        "1e309", "-1e309", "1e308*10", "1/0", "0/0", "SQRT(-1)", "LOG(0)", "2**1024",
+    ] {
         let e = parse_err(&format!("! comment\nN,1,0,{v}\n"));
         assert_eq!((e.line, e.command.as_str()), (2, "N"), "{e}");
         assert!(
@@ -343,7 +353,11 @@ fn missing_references_name_line_and_command() {
         ("TYPE,5\nE,1,2\n", 8, "E"),
         ("SECJOINT,LSYS,11\n", 7, "SECJOINT"),
         ("SECSTOP,6,-1,1\n", 7, "SECSTOP"),
-        ("SECTYPE,1,JOINT,REVO\nSECJOINT,LSYS,12\nTYPE,1\nE,1,2\n", 8, "SECJOINT"),
+        (
+            "SECTYPE,1,JOINT,REVO\nSECJOINT,LSYS,12\nTYPE,1\nE,1,2\n",
+            8,
+            "SECJOINT",
+        ),
         ("CSYS,12\n", 7, "CSYS"),
         ("KEYOPT,3,1,6\n", 7, "KEYOPT"),
         ("TYPE,2\nREAL,9\nE,1\n", 9, "E"),
@@ -371,8 +385,7 @@ fn build_errors_name_line_and_command() {
     let text = "/PREP7\nET,1,MPC184,6\nSECTYPE,1,JOINT,REVO\nN,1\nE,,1\nFINISH\n/SOLU\n\
                 ANTYPE,TRANS\nTIME,1\nDELTIM,0.1\nSOLVE\n";
     let deck = parse_str(text, FILE).unwrap();
-    let Err(Error::Deck(e)) =
-        rapier3d_mpc184::deck::DeckModel::build(&deck, Default::default())
+    let Err(Error::Deck(e)) = rapier3d_mpc184::deck::DeckModel::build(&deck, Default::default())
     else {
         panic!("built a joint on a massless node");
     };
@@ -398,4 +411,76 @@ fn extreme_ids_and_counts() {
     ] {
         exercise(text, STEPS);
     }
+}
+
+/// Extreme but finite physical values in decks that otherwise build: huge or tiny masses,
+/// coordinates, time steps, gravity, velocities, stiffnesses, friction and drives. Each either
+/// builds and runs its steps or stops with a typed error (the world's divergence check or the
+/// builder's overflow check), and never panics.
+#[test]
+fn extreme_physical_values() {
+    let decks = decks();
+    let get = |name: &str| {
+        decks
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, t)| t.clone())
+            .unwrap()
+    };
+    let pendulum = get("pendulum_z.inp");
+    let incline = get("friction_incline.inp");
+    let crank = get("slider_crank.inp");
+    let stops = get("stops_locks.inp");
+    let mut cases: Vec<String> = Vec::new();
+    for v in ["1e300", "1e-300", "1e-320", "0", "-1"] {
+        cases.push(pendulum.replace("M = 1.0 ", &format!("M = {v} ")));
+        cases.push(pendulum.replace("L = 1.0 ", &format!("L = {v} ")));
+        cases.push(pendulum.replace("G = 9.81 ", &format!("G = {v} ")));
+        cases.push(pendulum.replace("DELTIM,1/240", &format!("DELTIM,{v}")));
+        cases.push(pendulum.replace("TIME,2.0", &format!("TIME,{v}")));
+        cases.push(incline.replace("TBDATA,1,0.3", &format!("TBDATA,1,{v}")));
+        cases.push(incline.replace("SECJOINT,FRIC,0.1,0.05", &format!("SECJOINT,FRIC,{v},{v}")));
+        cases.push(incline.replace("R,2,1.0", &format!("R,2,{v}")));
+        cases.push(stops.replace("IC,1,UX,0,1.0", &format!("IC,1,UX,0,{v}")));
+        cases.push(stops.replace("SECSTOP,1,-0.2,0.2", &format!("SECSTOP,1,-{v},{v}")));
+        cases.push(crank.replace("R,1,0.5", &format!("R,1,{v}")));
+        cases.push(crank.replace("TBDATA,1,0.2", &format!("TBDATA,1,{v}")));
+        cases.push(crank.replace("RC = 0.1 ", &format!("RC = {v} ")));
+    }
+    // Far from the origin, a huge LOCAL offset, huge stiffness and drives.
+    cases.push(pendulum.replace("N,1,0,0,0", "N,1,1e300,0,0"));
+    cases.push(pendulum.replace("LOCAL,11,0,0,0,0", "LOCAL,11,0,1e300,0,0,1e300"));
+    cases.push(pendulum.replace("SOLVE", "TB,JOIN,1,,,STIF\nTBDATA,21,1e300\nSOLVE"));
+    cases.push(pendulum.replace("SOLVE", "DJ,1,ROTZ,1e300\nSOLVE"));
+    cases.push(pendulum.replace("SOLVE", "DJ,1,OMGZ,1e300\nSOLVE"));
+    cases.push(pendulum.replace("SOLVE", "FJ,1,MZ,1e300\nSOLVE"));
+    cases.push(pendulum.replace("SOLVE", "F,2,FX,1e300\nSOLVE"));
+    cases.push(pendulum.replace("SOLVE", "D,2,UZ,1e300\nSOLVE"));
+    cases.push(pendulum.replace("SOLVE", "IC,2,UY,0,1e300\nSOLVE"));
+    cases.push(pendulum.replace("SOLVE", "SOLVE\nTIME,1e300\nSOLVE"));
+    for text in &cases {
+        exercise(text, 20);
+    }
+}
+
+/// A chain of 100 000 nodes tied by rigid beams listed so that the union-find links them into
+/// one long path, then a CERIG from its far end: the builder must not recurse along the path
+/// (a stack overflow is an abort, worse than a panic).
+#[test]
+fn long_rigid_chain_does_not_overflow_the_stack() {
+    let n = 100_000;
+    let mut text = String::from("ET,1,MPC184,1\nET,2,MASS21,,,2\nR,1,1\n");
+    for k in 1..=n {
+        text.push_str(&format!("N,{k},{k}\n"));
+    }
+    text.push_str("TYPE,1\n");
+    for k in (1..n).rev() {
+        text.push_str(&format!("E,{},{k}\n", k + 1));
+    }
+    text.push_str(&format!("CERIG,{n},1\nTYPE,2 $ E,1\n"));
+    let deck = parse_str(&text, FILE).unwrap_or_else(|e| panic!("{e}"));
+    let model = rapier3d_mpc184::deck::DeckModel::build(&deck, Default::default())
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(model.bodies.len(), 1);
+    assert_eq!(model.bodies[0].nodes.len(), n);
 }

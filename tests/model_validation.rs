@@ -104,7 +104,14 @@ fn stop_with_min_above_max_is_refused() {
     let e = insert_second(j).unwrap_err();
     names_joint_1(&e);
     assert!(
-        matches!(e, Error::InvalidBehaviour { joint: JointId(1), field: "SECSTOP", .. }),
+        matches!(
+            e,
+            Error::InvalidBehaviour {
+                joint: JointId(1),
+                field: "SECSTOP",
+                ..
+            }
+        ),
         "{e}"
     );
 }
@@ -142,7 +149,14 @@ fn linear_and_nonlinear_law_on_one_component_is_refused() {
     let e = insert_second(j).unwrap_err();
     names_joint_1(&e);
     assert!(
-        matches!(e, Error::InvalidBehaviour { joint: JointId(1), field: "JNS", .. }),
+        matches!(
+            e,
+            Error::InvalidBehaviour {
+                joint: JointId(1),
+                field: "JNS",
+                ..
+            }
+        ),
         "{e}"
     );
 }
@@ -152,11 +166,22 @@ fn joint_between_a_body_and_itself_is_refused() {
     let mut w = world();
     let a = body(&mut w, Vector::ZERO, 1.0, Vector::splat(0.1));
     let e = w
-        .insert_joint(Some(a), Some(a), Mpc184Joint::new(JointKind::Spherical, Vector::ZERO))
+        .insert_joint(
+            Some(a),
+            Some(a),
+            Mpc184Joint::new(JointKind::Spherical, Vector::ZERO),
+        )
         .unwrap_err();
     assert!(e.to_string().starts_with("joint 0: body 2"), "{e}");
     assert!(
-        matches!(e, Error::InvalidBody { joint: JointId(0), which: 2, .. }),
+        matches!(
+            e,
+            Error::InvalidBody {
+                joint: JointId(0),
+                which: 2,
+                ..
+            }
+        ),
         "{e}"
     );
 }
@@ -180,7 +205,14 @@ fn dynamic_body_without_mass_or_with_singular_inertia_is_refused() {
         assert!(e.to_string().starts_with("joint 0: body 2"), "{e}");
         assert!(e.to_string().contains(what), "{e}");
         assert!(
-            matches!(e, Error::MassProperties { joint: JointId(0), which: 2, .. }),
+            matches!(
+                e,
+                Error::MassProperties {
+                    joint: JointId(0),
+                    which: 2,
+                    ..
+                }
+            ),
             "{e}"
         );
         // The world is unchanged: no joint was added.
@@ -206,7 +238,14 @@ fn frame_from_invalid_numbers_is_refused() {
     let e = insert_second(Mpc184Joint::revolute(Axis::Z, Vector::ZERO).with_axes(nan)).unwrap_err();
     names_joint_1(&e);
     assert!(
-        matches!(e, Error::DegenerateFrame { joint: JointId(1), node: 1, .. }),
+        matches!(
+            e,
+            Error::DegenerateFrame {
+                joint: JointId(1),
+                node: 1,
+                ..
+            }
+        ),
         "{e}"
     );
 }
@@ -252,9 +291,14 @@ fn deck_error(text: &str) -> DeckError {
 }
 
 fn at(e: &DeckError, line: usize, command: &str) {
-    assert_eq!((e.file.as_str(), e.line, e.command.as_str()), (FILE, line, command), "{e}");
+    assert_eq!(
+        (e.file.as_str(), e.line, e.command.as_str()),
+        (FILE, line, command),
+        "{e}"
+    );
     assert!(
-        e.to_string().starts_with(&format!("{FILE}:{line}: {command}: ")),
+        e.to_string()
+            .starts_with(&format!("{FILE}:{line}: {command}: ")),
         "{e}"
     );
 }
@@ -278,7 +322,12 @@ fn deck_revolute_nodes_apart() {
     at(&e, 17, "E");
     assert!(matches!(e.kind, DeckErrorKind::InvalidValue { .. }), "{e}");
     assert!(e.to_string().contains("nodes 2 (I) and 3 (J)"), "{e}");
-    let text = deck("ET,4,MPC184,7", "SECTYPE,2,JOINT,UNIV", "N,3,1,0.01,0", "E,2,3");
+    let text = deck(
+        "ET,4,MPC184,7",
+        "SECTYPE,2,JOINT,UNIV",
+        "N,3,1,0.01,0",
+        "E,2,3",
+    );
     at(&deck_error(&text), 17, "E");
 }
 
@@ -379,7 +428,11 @@ fn deck_section_subtype_disagrees_with_keyopt1() {
 
 #[test]
 fn deck_local_frame_from_invalid_numbers() {
-    for (bad, kind) in [("0/0", "NonFinite"), ("1e999", "NonFinite"), ("NAN", "Unknown")] {
+    for (bad, kind) in [
+        ("0/0", "NonFinite"),
+        ("1e999", "NonFinite"),
+        ("NAN", "Unknown"),
+    ] {
         let text = deck(
             "ET,4,MPC184,6,,,1",
             &format!("LOCAL,11,0,0,0,0,{bad}\nCSYS,0\n{REVO2}\nSECJOINT,LSYS,11"),

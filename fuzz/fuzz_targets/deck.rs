@@ -5,7 +5,10 @@
 use libfuzzer_sys::fuzz_target;
 
 #[path = "../../tests/common/hostile.rs"]
-#[allow(dead_code, reason = "the proptest harness uses the outcome, this one does not")]
+#[allow(
+    dead_code,
+    reason = "the proptest harness uses the outcome, this one does not"
+)]
 mod hostile;
 
 fuzz_target!(|data: &[u8]| {

@@ -232,14 +232,22 @@ fn dof_of(d: DofLabel) -> Dof {
 struct UnionFind(BTreeMap<u32, u32>);
 
 impl UnionFind {
+    /// The root of `x`, compressing the path (iterative: a deck can chain any number of nodes).
     fn find(&mut self, x: u32) -> u32 {
-        let p = *self.0.entry(x).or_insert(x);
-        if p == x {
-            return x;
+        let mut root = x;
+        loop {
+            let p = *self.0.entry(root).or_insert(root);
+            if p == root {
+                break;
+            }
+            root = p;
         }
-        let r = self.find(p);
-        self.0.insert(x, r);
-        r
+        let mut y = x;
+        while y != root {
+            let next = self.0.insert(y, root).unwrap_or(root);
+            y = next;
+        }
+        root
     }
     fn union(&mut self, a: u32, b: u32) {
         let (ra, rb) = (self.find(a), self.find(b));
@@ -582,8 +590,10 @@ impl DeckModel {
                     }
                 }
             }
+            // In `Real` too: the f32 build overflows sooner.
             let finite = m.is_finite()
-                && com.iter().all(|x| x.is_finite())
+                && (m as Real).is_finite()
+                && vec3(com).is_finite()
                 && inertia.iter().flatten().all(|x| x.is_finite());
             if !finite {
                 let line = masses
@@ -628,6 +638,28 @@ impl DeckModel {
                     ));
                 }
                 let pi = mp.principal_inertia();
+                let inv = mp.inv_principal_inertia;
+                if !(mp.inv_mass.is_finite()
+                    && mp.inv_mass > 0.0
+                    && inv.is_finite()
+                    && inv.min_element() > 0.0)
+                {
+                    // Too light (or too small) to invert: Rapier would take it as infinitely
+                    // heavy on some axis.
+                    let line = masses
+                        .iter()
+                        .find(|x| nodes.contains(&x.0))
+                        .map_or(0, |x| x.3);
+                    return Err(invalid(
+                        deck,
+                        line,
+                        "E",
+                        format!(
+                            "body of nodes {label}: mass {m:e} kg, principal inertia {pi} kg m^2: \
+                             too small to invert (give it a real mass, or fix it)"
+                        ),
+                    ));
+                }
                 let h = world.physics.bodies.insert(
                     RigidBodyBuilder::dynamic()
                         .translation(vec3(com))
@@ -691,7 +723,15 @@ impl DeckModel {
             let h = |x: Option<usize>| x.map(|i| bodies[i].handle);
             let id = world
                 .insert_joint(h(b1), h(b2), joint)
-                .map_err(|x| at_line(deck, e.line, "E", x))?;
+                .map_err(|x| match x {
+                    Error::Unsupported { .. } | Error::Deck(_) => at_line(deck, e.line, "E", x),
+                    other => invalid(
+                        deck,
+                        e.line,
+                        "E",
+                        format!("joint element {}: {other}", e.id),
+                    ),
+                })?;
             joints.push(DeckJoint {
                 element: e.id,
                 id,
@@ -1555,7 +1595,12 @@ fn build_joint(
                 };
                 let bad = list
                     .iter()
-                    .find(|r| !free.contains(dof_of(r.dof)) || r.min.is_nan() || r.max.is_nan() || r.min > r.max)
+                    .find(|r| {
+                        !free.contains(dof_of(r.dof))
+                            || r.min.is_nan()
+                            || r.max.is_nan()
+                            || r.min > r.max
+                    })
                     .or(list.first());
                 (bad.map_or(sec.line, |r| r.line), field)
             }
