@@ -399,6 +399,16 @@ impl Mpc184World {
     }
 
     /// Inserts a joint between body 1 (node I) and body 2 (node J); `None` is the ground.
+    ///
+    /// The model is validated first and the world is left unchanged on error:
+    /// [`Error::DegenerateFrame`] (non-finite nodes, axes that are not a rotation),
+    /// [`Error::InvalidPitch`] (a screw of zero pitch), [`Error::NodesApart`] (revolute or
+    /// universal nodes further apart than [`crate::joint::COINCIDENCE_TOLERANCE`] allows),
+    /// [`Error::InvalidBehaviour`] (a stop or lock on a constrained DOF or with min > max, a
+    /// linear and a nonlinear law on one component, bad tables or friction),
+    /// [`Error::MassProperties`] (a dynamic body without mass or with a singular inertia on an
+    /// unlocked axis), [`Error::InvalidBody`] (no such body, both sides grounded, or a body
+    /// jointed to itself).
     pub fn insert_joint(
         &mut self,
         body1: Option<RigidBodyHandle>,

@@ -17,6 +17,14 @@
 //! | `IC` velocities | the body's rigid velocity, least-squares fitted to its nodes' velocities |
 //! | `TIME`, `DELTIM`, `NSUBST`, `KBC` | the time step, the number of output steps, ramped or stepped profiles |
 //!
+//! Before the first step the builder refuses, naming the deck line and command: revolute and
+//! universal joints whose nodes do not coincide (to [`crate::joint::COINCIDENCE_TOLERANCE`]), a
+//! screw of zero pitch, a stop or lock on a constrained DOF (the `SECSTOP`/`SECLOCK` line), a
+//! linear and a nonlinear law on one component (the `TB` line), a joint whose two sides are one
+//! rigid body or both fixed, a joint or load on a body without mass, masses and coordinates too
+//! large or too small to invert (the `MASS21` element), and a `LOCAL` system that is not a
+//! proper rotation (in a [`Deck`] made by hand; the parser builds only proper ones).
+//!
 //! Everything else is an error that names the deck line (`FILE:LINE: COMMAND: what`): rigid
 //! links (KEYOPT(1) = 0: a distance constraint this crate has no row for), `D` whose set of
 //! labels changes between load steps, `ANTYPE,STATIC`, initial displacements.
