@@ -57,6 +57,45 @@ pub enum Error {
         /// What is wrong.
         reason: String,
     },
+    /// Nodes I and J of a joint whose nodes must coincide (revolute, universal) are further
+    /// apart than [`crate::joint::COINCIDENCE_TOLERANCE`] allows.
+    #[error(
+        "{joint}: nodes I and J of a {kind} joint are {distance:e} m apart: they must coincide \
+         (to {tolerance:e} m)"
+    )]
+    NodesApart {
+        /// The joint.
+        joint: JointId,
+        /// The joint kind's name.
+        kind: &'static str,
+        /// The distance between the nodes at time 0 (m).
+        distance: Real,
+        /// The largest distance allowed (m).
+        tolerance: Real,
+    },
+    /// A screw joint whose pitch (`SECJOINT,PITC`) is zero or not finite.
+    #[error(
+        "{joint}: screw pitch {pitch} m/rad: must be finite and nonzero (a screw of zero pitch \
+         is a cylindrical joint with UZ held: use KEYOPT(1) = 11 and a SECLOCK on UZ)"
+    )]
+    InvalidPitch {
+        /// The joint.
+        joint: JointId,
+        /// The pitch given (m/rad).
+        pitch: Real,
+    },
+    /// A dynamic body of a joint without mass or with a singular (zero, infinite or non-finite)
+    /// inertia: Rapier would treat it as infinitely heavy on that axis. Make it fixed, or give
+    /// it mass properties.
+    #[error("{joint}: body {which}: {reason}")]
+    MassProperties {
+        /// The joint.
+        joint: JointId,
+        /// 1 (node I) or 2 (node J).
+        which: u8,
+        /// What is wrong, with the body's handle.
+        reason: String,
+    },
     /// A joint id that does not exist (removed or never inserted).
     #[error("{0}: no such joint")]
     UnknownJoint(JointId),
@@ -81,7 +120,7 @@ pub enum Error {
         reason: String,
     },
     /// A joint's behaviour data (SECSTOP, SECLOCK, TB,JOIN, SECDATA) is inconsistent.
-    #[error("joint {joint}: {field}: {reason}")]
+    #[error("{joint}: {field}: {reason}")]
     InvalidBehaviour {
         /// The joint.
         joint: JointId,

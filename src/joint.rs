@@ -7,6 +7,13 @@ use crate::catalogue::{Axis, JointKind};
 use crate::dof::Dof;
 use crate::math::{Real, Rotation, Vector};
 
+/// How far apart nodes I and J of a revolute or universal joint may start, relative to the
+/// size of their coordinates: `|x_J - x_I| <= COINCIDENCE_TOLERANCE * max(1, |x_I|, |x_J|)` (m),
+/// so 1 um for a model within a metre of the origin. MPC184 requires these nodes to coincide;
+/// beyond the tolerance `Mpc184World::insert_joint` refuses the joint
+/// ([`crate::Error::NodesApart`]) rather than hold an offset the user did not mean.
+pub const COINCIDENCE_TOLERANCE: Real = 1e-6;
+
 /// How the constraint equations are imposed (KEYOPT(2)).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub enum ConstraintMethod {

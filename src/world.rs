@@ -20,8 +20,8 @@ use crate::kinematics::{self, AngleUnwrap};
 use crate::lagrange::{LagrangeDiagnostics, LagrangeState};
 use crate::lower::{self, Backend};
 use crate::math::rapier::dynamics::{
-    GenericJointBuilder, ImpulseJointHandle, MultibodyJointHandle, RigidBody, RigidBodyBuilder,
-    RigidBodyHandle,
+    GenericJointBuilder, ImpulseJointHandle, LockedAxes, MultibodyJointHandle, RigidBody,
+    RigidBodyBuilder, RigidBodyHandle,
 };
 use crate::math::rapier::pipeline::PhysicsWorld;
 use crate::math::{Matrix, Pose, Real, Vector};
@@ -459,6 +459,16 @@ impl Mpc184World {
     }
 
     /// Inserts a joint between body 1 (node I) and body 2 (node J); `None` is the ground.
+    ///
+    /// The model is validated first and the world is left unchanged on error:
+    /// [`Error::DegenerateFrame`] (non-finite nodes, axes that are not a rotation),
+    /// [`Error::InvalidPitch`] (a screw of zero pitch), [`Error::NodesApart`] (revolute or
+    /// universal nodes further apart than [`crate::joint::COINCIDENCE_TOLERANCE`] allows),
+    /// [`Error::InvalidBehaviour`] (a stop or lock on a constrained DOF or with min > max, a
+    /// linear and a nonlinear law on one component, bad tables or friction),
+    /// [`Error::MassProperties`] (a dynamic body without mass or with a singular inertia on an
+    /// unlocked axis), [`Error::InvalidBody`] (no such body, both sides grounded, or a body
+    /// jointed to itself).
     pub fn insert_joint(
         &mut self,
         body1: Option<RigidBodyHandle>,
@@ -467,6 +477,7 @@ impl Mpc184World {
     ) -> Result<JointId, Error> {
         let id = JointId(self.joints.len() as u32);
         validate_frames(id, &joint)?;
+        validate_model(id, &joint, body1.is_some() && body2.is_some())?;
         joint
             .behaviour
             .validate(&joint.kind)
@@ -510,6 +521,20 @@ impl Mpc184World {
                     which,
                     reason: "no such body".into(),
                 });
+            }
+        }
+        for (which, b) in [(1u8, body1), (2, body2)] {
+            if let Some(h) = b {
+                let colliders = &self.physics.colliders;
+                let rb = &mut self.physics.bodies[h];
+                rb.recompute_mass_properties_from_colliders(colliders);
+                if let Some(reason) = mass_defect(rb) {
+                    return Err(Error::MassProperties {
+                        joint: id,
+                        which,
+                        reason: format!("{h:?}: {reason}"),
+                    });
+                }
             }
         }
         match (body1, body2) {
@@ -1357,6 +1382,65 @@ fn inertia_at(rb: &RigidBody, pose: &Pose) -> Matrix {
 }
 
 /// Checks that the joint's nodes are finite and its axes proper rotations.
+/// Checks of the joint against its kind that need no body: a screw's pitch, and the
+/// coincidence of the nodes of a revolute or universal joint with a body on each side (a
+/// grounded side is placed at the other node).
+fn validate_model(id: JointId, j: &Mpc184Joint, two_bodies: bool) -> Result<(), Error> {
+    use crate::catalogue::JointKind;
+    if let JointKind::Screw { pitch } = j.kind
+        && !(pitch.is_finite() && pitch != 0.0)
+    {
+        return Err(Error::InvalidPitch { joint: id, pitch });
+    }
+    if two_bodies && matches!(j.kind, JointKind::Revolute { .. } | JointKind::Universal) {
+        let distance = (j.node2 - j.node1).length();
+        let scale = j.node1.length().max(j.node2.length()).max(1.0);
+        let tolerance = crate::joint::COINCIDENCE_TOLERANCE * scale;
+        if distance > tolerance {
+            return Err(Error::NodesApart {
+                joint: id,
+                kind: j.kind.name(),
+                distance,
+                tolerance,
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Why a dynamic body cannot take part in a joint: no (or a non-finite) mass, or a singular
+/// inertia, on axes that are not locked. Fixed and kinematic bodies are always fine.
+fn mass_defect(rb: &RigidBody) -> Option<String> {
+    if !rb.is_dynamic() {
+        return None;
+    }
+    let locked = rb.locked_axes();
+    let mp = &rb.mass_properties().local_mprops;
+    let translations = LockedAxes::TRANSLATION_LOCKED_X
+        | LockedAxes::TRANSLATION_LOCKED_Y
+        | LockedAxes::TRANSLATION_LOCKED_Z;
+    let has_mass = mp.inv_mass.is_finite() && mp.inv_mass > 0.0;
+    if !(has_mass || locked.contains(translations)) {
+        return Some(format!(
+            "a dynamic body with mass {} kg: give it mass, or make it fixed",
+            mp.mass()
+        ));
+    }
+    let rotations = LockedAxes::ROTATION_LOCKED_X
+        | LockedAxes::ROTATION_LOCKED_Y
+        | LockedAxes::ROTATION_LOCKED_Z;
+    let inv = mp.inv_principal_inertia;
+    let regular = inv.is_finite() && inv.min_element() > 0.0;
+    if !(regular || locked.intersects(rotations)) {
+        return Some(format!(
+            "a dynamic body with a singular inertia (principal moments {} kg m^2): give it \
+             rotary inertia about every axis, lock the rotation, or make it fixed",
+            mp.principal_inertia()
+        ));
+    }
+    None
+}
+
 fn validate_frames(id: JointId, j: &Mpc184Joint) -> Result<(), Error> {
     for (node, x, q) in [(1u8, j.node1, j.axes1), (2, j.node2, j.axes2())] {
         if !x.is_finite() {

@@ -19,6 +19,14 @@
 //! | `TIME`, `DELTIM`, `NSUBST`, `KBC` | the time step, the number of output steps, ramped or stepped profiles |
 //! | `ANTYPE,STATIC` | [`Mpc184World::static_step`] per output step (kinematically driven mechanisms only) |
 //!
+//! Before the first step the builder refuses, naming the deck line and command: revolute and
+//! universal joints whose nodes do not coincide (to [`crate::joint::COINCIDENCE_TOLERANCE`]), a
+//! screw of zero pitch, a stop or lock on a constrained DOF (the `SECSTOP`/`SECLOCK` line), a
+//! linear and a nonlinear law on one component (the `TB` line), a joint whose two sides are one
+//! rigid body or both fixed, a joint or load on a body without mass, masses and coordinates too
+//! large or too small to invert (the `MASS21` element), and a `LOCAL` system that is not a
+//! proper rotation (in a [`Deck`] made by hand; the parser builds only proper ones).
+//!
 //! Everything else is an error that names the deck line (`FILE:LINE: COMMAND: what`): `D`
 //! whose set of labels changes between load steps, `ANTYPE,STATIC` on a mechanism with a free
 //! DOF (see below), initial displacements.
@@ -245,14 +253,22 @@ fn dof_of(d: DofLabel) -> Dof {
 struct UnionFind(BTreeMap<u32, u32>);
 
 impl UnionFind {
+    /// The root of `x`, compressing the path (iterative: a deck can chain any number of nodes).
     fn find(&mut self, x: u32) -> u32 {
-        let p = *self.0.entry(x).or_insert(x);
-        if p == x {
-            return x;
+        let mut root = x;
+        loop {
+            let p = *self.0.entry(root).or_insert(root);
+            if p == root {
+                break;
+            }
+            root = p;
         }
-        let r = self.find(p);
-        self.0.insert(x, r);
-        r
+        let mut y = x;
+        while y != root {
+            let next = self.0.insert(y, root).unwrap_or(root);
+            y = next;
+        }
+        root
     }
     fn union(&mut self, a: u32, b: u32) {
         let (ra, rb) = (self.find(a), self.find(b));
@@ -384,7 +400,7 @@ impl DeckModel {
         for n in deck.nodes.keys() {
             uf.find(*n);
         }
-        let mut masses: Vec<(u32, f64, [f64; 3])> = Vec::new();
+        let mut masses: Vec<(u32, f64, [f64; 3], usize)> = Vec::new();
         for e in deck.elements.values() {
             let et = deck
                 .element_type_of(e)
@@ -404,12 +420,12 @@ impl DeckModel {
                 // A pin-ended distance constraint between two bodies: a joint (below).
                 Some(ElementRole::RigidLink) => {}
                 Some(ElementRole::Mass) => {
-                    let Some(node) = e.i.or(e.j) else {
+                    let Some(node) = e.i.or(e.j).filter(|n| deck.nodes.contains_key(n)) else {
                         return Err(invalid(
                             deck,
                             e.line,
                             "E",
-                            format!("MASS21 element {} needs a node", e.id),
+                            format!("MASS21 element {} needs a defined node", e.id),
                         ));
                     };
                     let r = deck.real_constants.get(&e.real).ok_or_else(|| {
@@ -458,7 +474,7 @@ impl DeckModel {
                     if m < 0.0 || inertia.iter().any(|x| *x < 0.0) {
                         return Err(invalid(deck, r.line, "R", "negative mass or inertia"));
                     }
-                    masses.push((node, m, inertia));
+                    masses.push((node, m, inertia, e.line));
                 }
                 Some(ElementRole::Joint) | None => {}
             }
@@ -523,7 +539,7 @@ impl DeckModel {
         for nodes in groups.values() {
             let mut m = 0.0;
             let mut mx = [0.0; 3];
-            for (node, mm, _) in &masses {
+            for (node, mm, _, _) in &masses {
                 if nodes.contains(node) {
                     let p = deck.nodes[node].position;
                     m += mm;
@@ -571,7 +587,7 @@ impl DeckModel {
                 let d = [p[0] - com[0], p[1] - com[1], p[2] - com[2]];
                 r_max = r_max.max((d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt());
             }
-            for (node, mm, ii) in &masses {
+            for (node, mm, ii, _) in &masses {
                 if !nodes.contains(node) {
                     continue;
                 }
@@ -585,6 +601,26 @@ impl DeckModel {
                         inertia[a][b] += mm * (delta - d[a] * d[b]);
                     }
                 }
+            }
+            // In `Real` too: the f32 build overflows sooner.
+            let finite = m.is_finite()
+                && (m as Real).is_finite()
+                && vec3(com).is_finite()
+                && inertia.iter().flatten().all(|x| x.is_finite());
+            if !finite {
+                let line = masses
+                    .iter()
+                    .find(|x| nodes.contains(&x.0))
+                    .map_or(0, |x| x.3);
+                return Err(invalid(
+                    deck,
+                    line,
+                    "E",
+                    format!(
+                        "body of nodes {label}: its mass, centre of mass or inertia overflows \
+                         (mass {m:e} kg): masses and coordinates are too large"
+                    ),
+                ));
             }
             let index = bodies.len();
             let (handle, principal) = if fixed || m <= 0.0 {
@@ -614,6 +650,28 @@ impl DeckModel {
                     ));
                 }
                 let pi = mp.principal_inertia();
+                let inv = mp.inv_principal_inertia;
+                if !(mp.inv_mass.is_finite()
+                    && mp.inv_mass > 0.0
+                    && inv.is_finite()
+                    && inv.min_element() > 0.0)
+                {
+                    // Too light (or too small) to invert: Rapier would take it as infinitely
+                    // heavy on some axis.
+                    let line = masses
+                        .iter()
+                        .find(|x| nodes.contains(&x.0))
+                        .map_or(0, |x| x.3);
+                    return Err(invalid(
+                        deck,
+                        line,
+                        "E",
+                        format!(
+                            "body of nodes {label}: mass {m:e} kg, principal inertia {pi} kg m^2: \
+                             too small to invert (give it a real mass, or fix it)"
+                        ),
+                    ));
+                }
                 let h = world.physics.bodies.insert(
                     RigidBodyBuilder::dynamic()
                         .translation(vec3(com))
@@ -678,7 +736,15 @@ impl DeckModel {
             let h = |x: Option<usize>| x.map(|i| bodies[i].handle);
             let id = world
                 .insert_joint(h(b1), h(b2), joint)
-                .map_err(|x| at_line(deck, e.line, "E", x))?;
+                .map_err(|x| match x {
+                    Error::Unsupported { .. } | Error::Deck(_) => at_line(deck, e.line, "E", x),
+                    other => invalid(
+                        deck,
+                        e.line,
+                        "E",
+                        format!("joint element {}: {other}", e.id),
+                    ),
+                })?;
             joints.push(DeckJoint {
                 element: e.id,
                 id,
@@ -1460,6 +1526,38 @@ fn build_joint(
     let kind =
         JointKind::from_keyopts(k1, et.keyopt(4), released, sec.pitch.unwrap_or(0.0) as Real)
             .map_err(|x| at_line(deck, et.line, "ET", x))?;
+    if let JointKind::Screw { pitch } = kind
+        && !(pitch.is_finite() && pitch != 0.0)
+    {
+        return Err(invalid(
+            deck,
+            sec.line,
+            "SECTYPE",
+            format!(
+                "screw section {} (element {}): SECJOINT,PITC,{pitch}: the pitch must be nonzero \
+                 (a screw of zero pitch is a cylindrical joint, KEYOPT(1) = 11, with UZ locked)",
+                sec.id, e.id
+            ),
+        ));
+    }
+    if let (JointKind::Revolute { .. } | JointKind::Universal, Some(i), Some(j)) = (kind, e.i, e.j)
+    {
+        let distance = (p2 - p1).length();
+        let tolerance = crate::joint::COINCIDENCE_TOLERANCE * p1.length().max(p2.length()).max(1.0);
+        if distance > tolerance {
+            return Err(invalid(
+                deck,
+                e.line,
+                "E",
+                format!(
+                    "{} joint element {}: nodes {i} (I) and {j} (J) are {distance:e} m apart: \
+                     they must coincide (to {tolerance:e} m)",
+                    kind.name(),
+                    e.id
+                ),
+            ));
+        }
+    }
     let method = match et.keyopt(2) {
         0 => {
             if sec.penalty_displacement.is_some() || sec.penalty_rotation.is_some() {
@@ -1495,6 +1593,14 @@ fn build_joint(
                 },
             )
         })?;
+        if let Some(why) = c.defect() {
+            return Err(invalid(
+                deck,
+                c.line,
+                "LOCAL",
+                format!("coordinate system {cs} (section {}): {why}", sec.id),
+            ));
+        }
         let m = Matrix::from_cols(vec3(c.axis(0)), vec3(c.axis(1)), vec3(c.axis(2)));
         Ok(Rotation::from_mat3(&m).normalize())
     };
@@ -1631,21 +1737,47 @@ fn build_joint(
         joint = joint.with_friction(friction_model(deck, e.id, &kind, fd)?);
     }
     joint.behaviour.validate(&kind).map_err(|(field, reason)| {
-        let line = match field {
-            "SECSTOP" | "SECLOCK" => sec
-                .stops
-                .iter()
-                .chain(&sec.locks)
-                .map(|s| s.line)
-                .next()
-                .unwrap_or(sec.line),
-            _ => sec.line,
+        // The deck line and command the offending data came from.
+        let (line, command) = match field {
+            "SECSTOP" | "SECLOCK" => {
+                let list = if field == "SECSTOP" {
+                    &sec.stops
+                } else {
+                    &sec.locks
+                };
+                let bad = list
+                    .iter()
+                    .find(|r| {
+                        !free.contains(dof_of(r.dof))
+                            || r.min.is_nan()
+                            || r.max.is_nan()
+                            || r.min > r.max
+                    })
+                    .or(list.first());
+                (bad.map_or(sec.line, |r| r.line), field)
+            }
+            "GENB" => (
+                sec.stops
+                    .iter()
+                    .chain(&sec.locks)
+                    .map(|r| r.line)
+                    .next()
+                    .unwrap_or(sec.line),
+                "SECTYPE",
+            ),
+            "STIF" | "DAMP" | "JNS" | "JND" | "MUS" => (
+                deck.join_tables_of(e.material)
+                    .find(|t| t.tbopt.starts_with(field))
+                    .map_or(sec.line, |t| t.line),
+                "TB",
+            ),
+            _ => (sec.line, "SECTYPE"),
         };
         invalid(
             deck,
             line,
-            field,
-            format!("joint element {}: {reason}", e.id),
+            command,
+            format!("joint element {} ({field}): {reason}", e.id),
         )
     })?;
     Ok((joint, friction))

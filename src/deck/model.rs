@@ -192,6 +192,36 @@ impl CoordinateSystem {
         }
     }
 
+    /// Why this system is not a proper Cartesian frame (a non-finite origin or rotation, or a
+    /// rotation matrix that is not orthonormal with determinant +1 to 1e-9), or `None` when it
+    /// is one. The parser builds only proper systems; a [`Deck`] made or deserialised by hand may
+    /// hold others, which the builder refuses.
+    pub fn defect(&self) -> Option<String> {
+        if !self.origin.iter().all(|x| x.is_finite()) {
+            return Some(format!("origin {:?} is not finite", self.origin));
+        }
+        let r = &self.rotation;
+        if !r.iter().flatten().all(|x| x.is_finite()) {
+            return Some(format!("rotation {r:?} is not finite"));
+        }
+        for a in 0..3 {
+            for b in 0..3 {
+                let dot: f64 = (0..3).map(|k| r[k][a] * r[k][b]).sum();
+                let want = if a == b { 1.0 } else { 0.0 };
+                if (dot - want).abs() > 1e-9 {
+                    return Some(format!("rotation {r:?} is not orthonormal"));
+                }
+            }
+        }
+        let det = r[0][0] * (r[1][1] * r[2][2] - r[1][2] * r[2][1])
+            - r[0][1] * (r[1][0] * r[2][2] - r[1][2] * r[2][0])
+            + r[0][2] * (r[1][0] * r[2][1] - r[1][1] * r[2][0]);
+        if (det - 1.0).abs() > 1e-9 {
+            return Some(format!("rotation {r:?} has determinant {det}, not +1"));
+        }
+        None
+    }
+
     /// Local axis `k` (0 = x, 1 = y, 2 = z; others give z) as a global unit vector.
     pub fn axis(&self, k: usize) -> [f64; 3] {
         let k = k.min(2);

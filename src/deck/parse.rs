@@ -342,8 +342,16 @@ impl Reader {
         }
         self.fields = split_fields(text);
         let Some(cmd) = canonical(&upper) else {
-            self.command = upper.clone();
-            return Err(self.unknown_command(&upper));
+            if upper.is_empty() {
+                self.command = "(blank)".into();
+                return Err(self.invalid(0, "the statement starts with a comma: no command name"));
+            }
+            // The name as written, shortened if absurdly long (the message repeats it).
+            self.command = match upper.char_indices().nth(32) {
+                Some((cut, _)) => format!("{}...", &upper[..cut]),
+                None => upper.clone(),
+            };
+            return Err(self.unknown_command(&self.command.clone()));
         };
         self.command = cmd.to_string();
         self.dispatch(cmd)
@@ -678,6 +686,17 @@ impl Reader {
             .coordinate_system(self.active_cs)
             .unwrap_or(CoordinateSystem::GLOBAL);
         let position = cs.to_global(local);
+        if let Some(k) = position.iter().position(|x| !x.is_finite()) {
+            // Each coordinate is finite; the active system's origin plus it is not.
+            return Err(self.err(DeckErrorKind::NonFinite {
+                field: 2 + k,
+                text: format!(
+                    "{} (global coordinate {k} in coordinate system {})",
+                    self.raw(2 + k).unwrap_or("0"),
+                    self.active_cs
+                ),
+            }));
+        }
         self.deck.nodes.insert(
             id,
             Node {
@@ -1018,6 +1037,9 @@ impl Reader {
         let origin = [self.num0(3)?, self.num0(4)?, self.num0(5)?];
         let angles = [self.num0(6)?, self.num0(7)?, self.num0(8)?];
         let cs = CoordinateSystem::from_local(id, origin, angles, self.line);
+        if let Some(why) = cs.defect() {
+            return Err(self.invalid(6, format!("local system {id}: {why}")));
+        }
         self.deck.coordinate_systems.insert(id, cs);
         self.active_cs = id;
         Ok(())
