@@ -19,22 +19,28 @@
 //!   or take their radii of gyration;
 //! - every joint's rotational constraint error ([`JointOutput::angular_gap`], the largest
 //!   `|e_a . f_b - target|` of its angular rows, about the sine of the angle error) is at most
-//!   `angular_gap` (default 0.5, about 30 degrees).
+//!   `angular_gap` (default 0.5, about 30 degrees);
+//! - no joint turns by more than `turn_per_step` (default pi, half a turn) in one step: its
+//!   relative angular velocity ([`JointOutput::angular_velocity`]) times the step `dt`.
 //!
 //! A working Lagrange joint holds its rows to the projection tolerance (1e-10); a penalty joint
 //! deflects by its load over its stiffness (10 um for 1 kN at the default 1e8 N/m); Rapier's
 //! impulse joints open by centimetres under heavy loads. A joint ten percent of the model apart,
 //! or turned 30 degrees off its constraint, is no longer that joint: the run has blown up
 //! (an unstable step grows the error by orders of magnitude per step, so the bound's exact value
-//! hardly changes the step at which it trips).
+//! hardly changes the step at which it trips). A joint turning half a turn per step is past
+//! what the output can follow: its rotations are unwrapped once per step, from the nearest
+//! branch of the angle, so the reported angle would be wrong by whole turns (the screw's and
+//! the drives' references are unwrapped per substep, four times finer). A blow-up that keeps
+//! every constraint, such as an explicit spring far too stiff for the step (`omega h` past 2:
+//! its swing grows each substep), shows here: the joint spins faster and faster.
 //!
 //! The cost is the checkpoint's copies (about 100 bytes per body and 600 per joint per step) and
 //! one pass over the joints' outputs, measured on the 100-link chain in the README.
 //!
 //! The joint blamed: the one whose bound was passed (the largest ratio of error to bound); when
 //! a solve failed or a body turned non-finite inside the step, a joint on a non-finite body
-//! (among them the one nearest to breaking at the last good state: the largest of its
-//! constraint errors and its motion per substep, each over its bound), else the joint with the
+//! (among them the one nearest to a bound at the last good state), else the joint with the
 //! largest constraint error relative to its bound at the failed state.
 
 use crate::effects::{EffectState, EnergyLedger};
@@ -55,6 +61,9 @@ pub struct DivergenceLimits {
     /// Largest rotational constraint error of a joint (about the sine of the angle error;
     /// default 0.5).
     pub angular_gap: Real,
+    /// Largest relative rotation of a joint in one step, its relative angular velocity times
+    /// `dt` (rad; default pi).
+    pub turn_per_step: Real,
 }
 
 impl Default for DivergenceLimits {
@@ -62,7 +71,32 @@ impl Default for DivergenceLimits {
         Self {
             gap_fraction: 0.1,
             angular_gap: 0.5,
+            turn_per_step: crate::math::PI,
         }
+    }
+}
+
+/// The limits in absolute terms for one check.
+struct Bounds {
+    size: Real,
+    gap: Real,
+    angular: Real,
+    /// Largest relative angular velocity (rad/s).
+    rate: Real,
+}
+
+impl Bounds {
+    /// Each measure of a joint's output over its bound: translational error, rotational
+    /// error, rotation per step (infinite for a non-finite output).
+    fn ratios(&self, o: &JointOutput) -> [Real; 3] {
+        if !output_finite(o) {
+            return [Real::INFINITY; 3];
+        }
+        [
+            o.gap / self.gap,
+            o.angular_gap / self.angular,
+            o.angular_velocity.length() / self.rate,
+        ]
     }
 }
 
@@ -113,6 +147,7 @@ impl Mpc184World {
         for (field, value) in [
             ("gap_fraction", limits.gap_fraction),
             ("angular_gap", limits.angular_gap),
+            ("turn_per_step", limits.turn_per_step),
         ] {
             if value.is_nan() || value <= 0.0 {
                 return Err(Error::InvalidSetting {
@@ -251,15 +286,23 @@ impl Mpc184World {
         }
     }
 
+    fn bounds(&self) -> Bounds {
+        let size = self.model_size();
+        Bounds {
+            size,
+            gap: self.limits.gap_fraction * size,
+            angular: self.limits.angular_gap,
+            rate: self.limits.turn_per_step / self.settings.dt,
+        }
+    }
+
     /// Checks the state after a step against the limits (see the module docs).
     pub(crate) fn check_divergence(&self) -> Result<(), Error> {
-        let size = self.model_size();
-        let gap_limit = self.limits.gap_fraction * size;
-        let ang_limit = self.limits.angular_gap;
+        let b = self.bounds();
         let mut worst: Option<(usize, Real)> = None;
         for (j, e) in self.joints.iter().enumerate() {
             let Some(e) = e else { continue };
-            let r = relative_error(&e.output, gap_limit, ang_limit);
+            let r = b.ratios(&e.output).into_iter().fold(0.0, Real::max);
             if r > 1.0 && worst.is_none_or(|(_, w)| r > w) {
                 worst = Some((j, r));
             }
@@ -271,18 +314,28 @@ impl Mpc184World {
             return Ok(());
         };
         let o = &e.output;
+        let [g, a, t] = b.ratios(o);
         let reason = if !output_finite(o) {
             "non-finite joint output (relative motion or reaction)".to_string()
-        } else if o.gap / gap_limit >= o.angular_gap / ang_limit {
+        } else if g >= a && g >= t {
             format!(
-                "translational constraint error {:.3e} m past the divergence bound {gap_limit:.3e} m \
-                 ({} of the model size {size:.3e} m)",
-                o.gap, self.limits.gap_fraction
+                "translational constraint error {:.3e} m past the divergence bound {:.3e} m \
+                 ({} of the model size {:.3e} m)",
+                o.gap, b.gap, self.limits.gap_fraction, b.size
+            )
+        } else if a >= t {
+            format!(
+                "rotational constraint error {:.3e} past the divergence bound {:.3e}",
+                o.angular_gap, b.angular
             )
         } else {
+            let w = o.angular_velocity.length();
             format!(
-                "rotational constraint error {:.3e} past the divergence bound {ang_limit:.3e}",
-                o.angular_gap
+                "relative angular velocity {w:.3e} rad/s turns the joint {:.3e} rad in one step, \
+                 past the divergence bound {:.3e} rad (a blow-up, or a step too long for the \
+                 joint's speed)",
+                w * self.settings.dt,
+                self.limits.turn_per_step
             )
         };
         Err(Error::Diverged {
@@ -294,35 +347,34 @@ impl Mpc184World {
 
     /// The joint to blame for a failure found without one (see the module docs).
     fn culprit(&self) -> Option<JointId> {
-        let size = self.model_size();
-        let gap_limit = self.limits.gap_fraction * size;
-        let ang_limit = self.limits.angular_gap;
+        let b = self.bounds();
         let mut best: Option<(usize, (bool, Real))> = None;
         for (j, e) in self.joints.iter().enumerate() {
             let Some(e) = e else { continue };
             let broken = !(self.body_finite(e.body1) && self.body_finite(e.body2));
             let r = if broken {
-                // Rank the joints on broken bodies by how near they were to breaking at the last
-                // good state: their constraint errors, and how far they moved per substep, each
-                // relative to its bound (a force element blowing up drives its own DOF
-                // hardest; its neighbours only feel its reactions through the bodies' inertia).
-                let h = self.last_h;
+                // Rank the joints on broken bodies by how near they were to a bound at the last
+                // good state (a force element blowing up drives its own DOF hardest; its
+                // neighbours only feel its reactions through the bodies' inertia), with the
+                // relative translation per step over the translational bound as a fourth
+                // measure.
+                let dt = self.settings.dt;
                 self.checkpoint
                     .joints
                     .get(j)
                     .and_then(Option::as_ref)
                     .map_or(0.0, |s| {
                         let o = &s.output;
-                        relative_error(o, gap_limit, ang_limit)
-                            .max(o.velocity.length() * h / gap_limit)
-                            .max(o.angular_velocity.length() * h / ang_limit)
+                        b.ratios(o)
+                            .into_iter()
+                            .fold(o.velocity.length() * dt / b.gap, Real::max)
                     })
             } else {
                 let (gap, angular) = self.joint_gaps(e);
-                (gap / gap_limit).max(angular / ang_limit)
+                (gap / b.gap).max(angular / b.angular)
             };
             let r = if r.is_nan() { Real::INFINITY } else { r };
-            if best.is_none_or(|(_, b)| (broken, r) > b) {
+            if best.is_none_or(|(_, x)| (broken, r) > x) {
                 best = Some((j, (broken, r)));
             }
         }
@@ -369,15 +421,6 @@ impl Mpc184World {
         }
         (gap, angular_gap)
     }
-}
-
-/// The larger of the two constraint errors relative to their bounds; infinite for a
-/// non-finite output.
-fn relative_error(o: &JointOutput, gap_limit: Real, ang_limit: Real) -> Real {
-    if !output_finite(o) {
-        return Real::INFINITY;
-    }
-    (o.gap / gap_limit).max(o.angular_gap / ang_limit)
 }
 
 fn output_finite(o: &JointOutput) -> bool {
