@@ -1,6 +1,6 @@
 //! Divergence with nothing lost.
 //!
-//! [`Mpc184World::step`] saves at its start what a step changes (a [`Checkpoint`]: every
+//! [`Mpc184World::step`] saves at its start what a step changes (a checkpoint: every
 //! non-fixed body's pose, velocities and user force and torque; every joint's rows (screw and
 //! drive references, lock rows), behaviour state (stops, locks, friction), output and angle
 //! unwrapping; the energy ledger and the time; on the multibody backend the multibody set). It
@@ -35,8 +35,10 @@
 //! every constraint, such as an explicit spring far too stiff for the step (`omega h` past 2:
 //! its swing grows each substep), shows here: the joint spins faster and faster.
 //!
-//! The cost is the checkpoint's copies (about 100 bytes per body and 600 per joint per step) and
-//! one pass over the joints' outputs, measured on the 100-link chain in the README.
+//! The cost is the checkpoint's copies (about 100 bytes per body and 700 per joint per step) and
+//! one pass over the joints' outputs: 0.3 % of a step of the 10-link chain and 0.5 to 1 % of
+//! the 100-link chain (Lagrange, 4 substeps; measured 20 to 40 us of a 3.7 to 4.7 ms step on a
+//! loaded machine).
 //!
 //! The joint blamed: the one whose bound was passed (the largest ratio of error to bound); when
 //! a solve failed or a body turned non-finite inside the step, a joint on a non-finite body
@@ -172,7 +174,10 @@ impl Mpc184World {
 
     /// Measures the model size now (see [`Mpc184World::model_size`]).
     fn measure_model_size(&self) -> Real {
-        let (mut lo, mut hi) = (Vector::splat(Real::INFINITY), Vector::splat(-Real::INFINITY));
+        let (mut lo, mut hi) = (
+            Vector::splat(Real::INFINITY),
+            Vector::splat(-Real::INFINITY),
+        );
         let mut add = |p: Vector| {
             if p.is_finite() {
                 lo = lo.min(p);

@@ -63,7 +63,10 @@ const GYRO_ITERATIONS: usize = 4;
 const MAX_PROJECTION_ITERATIONS: usize = 40;
 
 #[derive(Clone, Copy, Debug, Default)]
-#[cfg_attr(feature = "serde-snapshot", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(
+    feature = "serde-snapshot",
+    derive(serde::Serialize, serde::Deserialize)
+)]
 pub(crate) struct BodyState {
     pub(crate) pose: Pose,
     pub(crate) com: Vector,
@@ -109,7 +112,10 @@ pub struct LagrangeDiagnostics {
 /// Solver state and buffers (not part of the model data). A snapshot holds all of it but the
 /// factorisation (`crate::snapshot`): a field added here is part of it.
 #[derive(Default)]
-#[cfg_attr(feature = "serde-snapshot", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(
+    feature = "serde-snapshot",
+    derive(serde::Serialize, serde::Deserialize)
+)]
 pub(crate) struct LagrangeState {
     pub(crate) dirty: bool,
     /// Number of colliders when the topology was built (a change rebuilds it).
@@ -125,10 +131,7 @@ pub(crate) struct LagrangeState {
     #[cfg_attr(feature = "serde-snapshot", serde(skip))]
     pub(crate) kkt: Option<KktSolver>,
     pub(crate) st: Vec<BodyState>,
-    #[cfg_attr(
-        feature = "serde-snapshot",
-        serde(with = "crate::snapshot::blocks36")
-    )]
+    #[cfg_attr(feature = "serde-snapshot", serde(with = "crate::snapshot::blocks36"))]
     pub(crate) mass: Vec<[Real; 36]>,
     pub(crate) jac: Vec<Real>,
     pub(crate) compliance: Vec<Real>,

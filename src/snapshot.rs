@@ -256,7 +256,9 @@ pub(crate) mod blocks36 {
         flat.serialize(s)
     }
 
-    pub(crate) fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Vec<[Real; 36]>, D::Error> {
+    pub(crate) fn deserialize<'de, D: Deserializer<'de>>(
+        d: D,
+    ) -> Result<Vec<[Real; 36]>, D::Error> {
         let flat: Vec<Vec<Real>> = Vec::deserialize(d)?;
         flat.into_iter()
             .map(|b| {

@@ -277,14 +277,20 @@ impl JointOutput {
 }
 
 #[derive(Clone, Copy, Debug)]
-#[cfg_attr(feature = "serde-snapshot", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(
+    feature = "serde-snapshot",
+    derive(serde::Serialize, serde::Deserialize)
+)]
 pub(crate) enum RapierJoint {
     Impulse(ImpulseJointHandle),
     Multibody(MultibodyJointHandle),
 }
 
 #[derive(Clone, Debug)]
-#[cfg_attr(feature = "serde-snapshot", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(
+    feature = "serde-snapshot",
+    derive(serde::Serialize, serde::Deserialize)
+)]
 pub(crate) struct JointEntry {
     pub(crate) joint: Mpc184Joint,
     pub(crate) body1: RigidBodyHandle,

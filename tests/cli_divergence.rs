@@ -111,7 +111,14 @@ fn a_diverging_deck_exits_3_with_every_row_up_to_the_last_good_time() {
                 assert!(x.is_finite(), "{file} row {i}: {row}");
             }
         }
-        let last: f64 = rows.last().unwrap().split(',').next().unwrap().parse().unwrap();
+        let last: f64 = rows
+            .last()
+            .unwrap()
+            .split(',')
+            .next()
+            .unwrap()
+            .parse()
+            .unwrap();
         assert_eq!(last, t_good, "{file}: the last row is the last good time");
     }
     let _ = std::fs::remove_dir_all(&dir);

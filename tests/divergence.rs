@@ -24,6 +24,8 @@
 //!
 //! No tolerance: the kept state is compared exactly (`Debug` prints every float to the bit).
 
+#![cfg(feature = "f64")]
+
 use rapier3d_mpc184::math::rapier::prelude::{MassProperties, RigidBodyBuilder, RigidBodyHandle};
 use rapier3d_mpc184::prelude::*;
 
@@ -128,7 +130,12 @@ fn unstable_scenes_diverge_naming_their_joint_and_keep_the_last_good_state() {
         let (mut world, bodies, joints) = unstable(load);
         let (err, last, steps) = run_to_failure(&mut world, &bodies, &joints, 600);
         println!("load {load}: after {steps} good steps: {err}");
-        let Error::Diverged { time, joint, reason } = &err else {
+        let Error::Diverged {
+            time,
+            joint,
+            reason,
+        } = &err
+        else {
             panic!("expected a divergence, got {err}");
         };
         assert!(steps >= 2, "the instability needs a few steps to grow");
@@ -150,12 +157,11 @@ fn a_constraint_error_past_its_bound_diverges_and_keeps_the_last_good_state() {
     let build = || {
         let mut world = Mpc184World::new(WorldSettings::default());
         let bob = body(&mut world, Vector::new(1.0, 0.0, 0.0), 1.0, 1e-3);
-        let pin = Mpc184Joint::revolute(Axis::Z, Vector::ZERO).with_method(
-            ConstraintMethod::Penalty {
+        let pin =
+            Mpc184Joint::revolute(Axis::Z, Vector::ZERO).with_method(ConstraintMethod::Penalty {
                 disp: -20.0,
                 rot: 0.0,
-            },
-        );
+            });
         let id = world.insert_joint(None, Some(bob), pin).unwrap();
         (world, bob, id)
     };
@@ -166,7 +172,12 @@ fn a_constraint_error_past_its_bound_diverges_and_keeps_the_last_good_state() {
     assert!((size - 1.0355).abs() < 1e-4, "model size {size}");
     let (err, last, steps) = run_to_failure(&mut world, &[bob], &[id], 600);
     println!("after {steps} good steps: {err}");
-    let Error::Diverged { time, joint, reason } = &err else {
+    let Error::Diverged {
+        time,
+        joint,
+        reason,
+    } = &err
+    else {
         panic!("expected a divergence, got {err}");
     };
     assert_eq!(*joint, Some(id));
@@ -187,4 +198,3 @@ fn a_constraint_error_past_its_bound_diverges_and_keeps_the_last_good_state() {
     }
     assert!(free.output(id).unwrap().gap > 0.1 * size);
 }
-

@@ -145,7 +145,9 @@ fn a_restored_world_continues_bit_for_bit() {
         }
     }
     let lock = world.output(s.joints[2]).unwrap().locks;
-    println!("window: stop active in {stops} steps, slipping {slips}, sticking {sticks}; locks {lock}");
+    println!(
+        "window: stop active in {stops} steps, slipping {slips}, sticking {sticks}; locks {lock}"
+    );
     assert!(stops > 0 && slips > 0 && sticks > 0 && lock == 1);
     let mut restored = Mpc184World::from_snapshot(&Snapshot::from_bytes(bytes.clone())).unwrap();
     assert!(
@@ -155,7 +157,10 @@ fn a_restored_world_continues_bit_for_bit() {
     for (k, want) in reference.iter().enumerate() {
         restored.step().unwrap();
         let got = state(&s, &restored);
-        assert!(got == *want, "step {k} after the snapshot:\n{got}\n!=\n{want}");
+        assert!(
+            got == *want,
+            "step {k} after the snapshot:\n{got}\n!=\n{want}"
+        );
     }
 }
 
