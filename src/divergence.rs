@@ -7,7 +7,11 @@
 //! then steps and checks the result. On any error it finds the joint to blame, puts the
 //! checkpoint back and returns [`Error::Diverged`] naming the joint and the time of that last
 //! good state: the world is exactly as it was after the last successful step (bit for bit), so
-//! that a caller can write its results up to there, or change the time step and go on.
+//! that a caller can write its results up to there, or change the time step and go on. Solver
+//! caches are not part of that state and start afresh at the next step: the Lagrange backend's
+//! factorisation and warm starts (rebuilt from the restored state), Rapier's contact and
+//! impulse-joint warm starts; nor are the bodies' sleep flags (a step that blows up does not put
+//! bodies to sleep).
 //!
 //! The check after each step ([`DivergenceLimits`]) is a guard against blow-up, not an accuracy
 //! test:
