@@ -44,7 +44,7 @@ const LIMIT_MARGIN: Real = 1e-6;
 type Responses = Vec<(Vec<[Real; 6]>, Vec<Real>)>;
 
 /// Per-joint solver state of the behaviour (not model data).
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
 pub(crate) struct EffectState {
     /// Locked DOFs and the value they are held at (absolute measure).
     pub(crate) locked: [Option<Real>; 6],
@@ -431,6 +431,7 @@ impl Mpc184World {
         };
         let fail = |e| Error::Diverged {
             time,
+            joint: None,
             reason: format!("joint stop/friction solve failed: {e}"),
         };
         let mut out = Vec::with_capacity(rows.len());
@@ -524,6 +525,7 @@ impl Mpc184World {
         if p.iter().any(|x| !x.is_finite()) {
             return Err(Error::Diverged {
                 time,
+                joint: None,
                 reason: "non-finite joint stop impulse".into(),
             });
         }

@@ -15,6 +15,10 @@ impl core::fmt::Display for JointId {
     }
 }
 
+fn at_joint(joint: &Option<JointId>) -> String {
+    joint.map_or_else(String::new, |j| format!(" at {j}"))
+}
+
 /// What went wrong, with the joint, body, field or option it concerns.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
@@ -129,12 +133,25 @@ pub enum Error {
         /// What is wrong.
         reason: String,
     },
-    /// The simulation produced non-finite or exploding values; the world keeps its last good state.
-    #[error("simulation diverged at t = {time} s: {reason}")]
+    /// The simulation produced non-finite values or a constraint error past its bound (see
+    /// [`crate::DivergenceLimits`]) during the step that started at `time`. The world keeps its
+    /// last good state: everything as it was at `time`, before the failed step.
+    #[error("simulation diverged in the step from t = {time} s{}: {reason}", at_joint(.joint))]
     Diverged {
-        /// Simulated time of the failing step (s).
+        /// Simulated time of the last good state: the start of the failed step (s). The world's
+        /// `time()` after the error.
         time: Real,
-        /// What diverged (names the joint or body).
+        /// The joint it was found at (non-finite, or the largest constraint error relative to
+        /// its bound); `None` only when no joint is involved (a free body).
+        joint: Option<JointId>,
+        /// What diverged.
+        reason: String,
+    },
+    /// A world snapshot that could not be written or read (see
+    /// [`crate::Mpc184World::snapshot`]).
+    #[error("snapshot: {reason}")]
+    Snapshot {
+        /// What is wrong.
         reason: String,
     },
     /// A static analysis ([`crate::Mpc184World::static_step`]) of a mechanism that still has

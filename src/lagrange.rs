@@ -77,6 +77,10 @@ const GYRO_ITERATIONS: usize = 4;
 const MAX_PROJECTION_ITERATIONS: usize = 40;
 
 #[derive(Clone, Copy, Debug, Default)]
+#[cfg_attr(
+    feature = "serde-snapshot",
+    derive(serde::Serialize, serde::Deserialize)
+)]
 pub(crate) struct BodyState {
     pub(crate) pose: Pose,
     pub(crate) com: Vector,
@@ -104,7 +108,7 @@ impl BodyState {
 }
 
 /// Diagnostics of the Lagrange backend.
-#[derive(Clone, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct LagrangeDiagnostics {
     /// Redundant constraint rows: those of the structure (found once per topology, without
     /// regularisation) or dropped by the last factorisation, whichever is more.
@@ -125,20 +129,30 @@ pub struct LagrangeDiagnostics {
     pub warnings: Vec<String>,
 }
 
-/// Solver state and buffers (not part of the model data).
+/// Solver state and buffers (not part of the model data). A snapshot holds all of it but the
+/// factorisation (`crate::snapshot`): a field added here is part of it.
 #[derive(Default)]
+#[cfg_attr(
+    feature = "serde-snapshot",
+    derive(serde::Serialize, serde::Deserialize)
+)]
 pub(crate) struct LagrangeState {
     pub(crate) dirty: bool,
     /// Number of colliders when the topology was built (a change rebuilds it).
     colliders: usize,
     pub(crate) bodies: Vec<RigidBodyHandle>,
+    /// Rebuilt from `bodies` on restoring a snapshot (a hash map's order is not the same in two
+    /// runs, and the snapshot's bytes should be).
+    #[cfg_attr(feature = "serde-snapshot", serde(skip))]
     pub(crate) index: HashMap<RigidBodyHandle, usize>,
     /// KKT block k -> world joint index, and back.
     blocks: Vec<usize>,
     block_of: Vec<Option<usize>>,
+    #[cfg_attr(feature = "serde-snapshot", serde(skip))]
     pub(crate) kkt: Option<KktSolver>,
     pub(crate) st: Vec<BodyState>,
-    mass: Vec<[Real; 36]>,
+    #[cfg_attr(feature = "serde-snapshot", serde(with = "crate::snapshot::blocks36"))]
+    pub(crate) mass: Vec<[Real; 36]>,
     pub(crate) jac: Vec<Real>,
     pub(crate) compliance: Vec<Real>,
     /// Per row: constraint value, kinematic-body velocity term, whether it is a penalty row.
@@ -164,7 +178,7 @@ pub(crate) struct LagrangeState {
     fresh_values: bool,
     /// The factorisation matches the states written back to Rapier at the end of the last
     /// substep (with this `h`), so the next step can start without refactorising.
-    factor_valid: Option<Real>,
+    pub(crate) factor_valid: Option<Real>,
     written: Vec<(Pose, Vector, Vector)>,
     has_kinematic: bool,
     /// Position multipliers of this substep's projection (the displacement is `M~^-1 J^T mu`),
@@ -209,6 +223,7 @@ impl LagrangeState {
 fn kkt_err(e: crate::solver::kkt::KktError, time: Real) -> Error {
     Error::Diverged {
         time,
+        joint: None,
         reason: format!("constraint solve failed: {e}"),
     }
 }
@@ -1014,6 +1029,7 @@ impl Mpc184World {
             if !(s.pose.translation.is_finite() && s.linvel.is_finite() && s.angvel.is_finite()) {
                 return Err(Error::Diverged {
                     time,
+                    joint: None,
                     reason: format!(
                         "body {:?}: non-finite state in the constraint solve",
                         b.into_raw_parts()

@@ -404,26 +404,37 @@ fn run(deck: &Deck, args: &RunArgs, out: &Path) -> Result<Summary, Failure> {
     };
     let started = Instant::now();
     let mut done = 0usize;
+    // Steps done when the last row was written (t = 0: none).
+    let mut written = 0usize;
     for k in 0..model.steps.len() {
         model.begin_load_step(k).map_err(deck_failure)?;
         for _ in 0..model.steps[k].steps {
             if let Err(e) = model.step() {
+                // The world kept its last good state: like the last step of a run, it gets its
+                // row even if --every thinned it out, then every file is flushed.
+                if written != done {
+                    w.row(&model, total0)?;
+                }
                 w.flush()?;
                 if progress {
                     println!();
                 }
                 return Err(match e {
-                    Error::Diverged { time, reason } => {
-                        let joints = model.joints_on_bad_bodies();
+                    Error::Diverged {
+                        time,
+                        joint,
+                        reason,
+                    } => {
+                        let at = joint
+                            .and_then(|id| model.joints.iter().find(|j| j.id == id))
+                            .map_or_else(String::new, |j| {
+                                format!(" at joint element {} ({})", j.element, j.kind.name())
+                            });
                         Failure::Diverged(format!(
-                            "diverged at t = {time} s (load step {}): joint element{} {}: {reason}",
+                            "diverged in the step from t = {time} s (load step {}){at}: {reason}; \
+                             {} hold every output row up to t = {time} s",
                             model.steps[k].number,
-                            if joints.len() == 1 { "" } else { "s" },
-                            joints
-                                .iter()
-                                .map(u32::to_string)
-                                .collect::<Vec<_>>()
-                                .join(", ")
+                            out.join("*.csv").display()
                         ))
                     }
                     other => deck_failure(other),
@@ -432,6 +443,7 @@ fn run(deck: &Deck, args: &RunArgs, out: &Path) -> Result<Summary, Failure> {
             done += 1;
             if done.is_multiple_of(every) || done == total_steps {
                 w.row(&model, total0)?;
+                written = done;
             }
             if let Some(c) = crank
                 && let Ok(o) = model.world.output(c)

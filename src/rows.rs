@@ -34,7 +34,7 @@ use crate::dof::{Dof, DofMask};
 use crate::math::{Matrix, Real, Vector};
 
 /// The geometry of one row.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub enum RowKind {
     /// `e_axis . (p2 - p1)`.
     Linear {

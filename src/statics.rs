@@ -106,6 +106,7 @@ struct System {
 fn kkt_error(time: Real, e: KktError) -> Error {
     Error::Diverged {
         time,
+        joint: None,
         reason: format!("static position solve: constraint factorisation failed: {e}"),
     }
 }
@@ -341,6 +342,7 @@ impl Mpc184World {
             if iterations == MAX_ITERATIONS {
                 return Err(Error::Diverged {
                     time: t1,
+                    joint: None,
                     reason: format!(
                         "static position solve: no convergence after {MAX_ITERATIONS} Newton \
                          iterations (residual {residual:.3e}): the drives ask for a pose the \
@@ -380,6 +382,7 @@ impl Mpc184World {
             if !residual.is_finite() {
                 return Err(Error::Diverged {
                     time: t1,
+                    joint: None,
                     reason: "static position solve: non-finite residual".into(),
                 });
             }

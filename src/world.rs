@@ -334,12 +334,20 @@ impl JointOutput {
 }
 
 #[derive(Clone, Copy, Debug)]
+#[cfg_attr(
+    feature = "serde-snapshot",
+    derive(serde::Serialize, serde::Deserialize)
+)]
 pub(crate) enum RapierJoint {
     Impulse(ImpulseJointHandle),
     Multibody(MultibodyJointHandle),
 }
 
 #[derive(Clone, Debug)]
+#[cfg_attr(
+    feature = "serde-snapshot",
+    derive(serde::Serialize, serde::Deserialize)
+)]
 pub(crate) struct JointEntry {
     pub(crate) joint: Mpc184Joint,
     pub(crate) body1: RigidBodyHandle,
@@ -392,19 +400,24 @@ pub struct Mpc184World {
     /// Rapier's bodies, colliders, joints and pipeline. Add bodies and colliders here; add joints
     /// with [`Mpc184World::insert_joint`].
     pub physics: PhysicsWorld,
-    settings: WorldSettings,
-    ground: Option<RigidBodyHandle>,
+    pub(crate) settings: WorldSettings,
+    pub(crate) ground: Option<RigidBodyHandle>,
     pub(crate) joints: Vec<Option<JointEntry>>,
     pub(crate) time: Real,
     pub(crate) lagrange: LagrangeState,
-    last_h: Real,
+    pub(crate) last_h: Real,
     starts: Vec<(RigidBodyHandle, BodyStart)>,
     gyro_added: Vec<(RigidBodyHandle, Vector)>,
-    started: bool,
+    pub(crate) started: bool,
     recovery: Option<KktSolver>,
     pub(crate) ledger: crate::effects::EnergyLedger,
     /// State of the static (position) analysis ([`crate::statics`]).
     pub(crate) statics: crate::statics::StaticState,
+    /// What the current step changes, saved at its start ([`crate::divergence`]).
+    pub(crate) checkpoint: crate::divergence::Checkpoint,
+    pub(crate) limits: crate::divergence::DivergenceLimits,
+    /// Measured at the first step after the joints changed.
+    pub(crate) model_size: Option<Real>,
 }
 
 impl Mpc184World {
@@ -428,6 +441,9 @@ impl Mpc184World {
             ledger: crate::effects::EnergyLedger::default(),
             lagrange: LagrangeState::default(),
             statics: crate::statics::StaticState::default(),
+            checkpoint: Default::default(),
+            limits: Default::default(),
+            model_size: None,
         }
     }
 
@@ -696,6 +712,7 @@ impl Mpc184World {
         entry.unwrap = wrapped.map(AngleUnwrap::new);
         entry.initial = m;
         self.joints.push(Some(entry));
+        self.model_size = None;
         self.refresh_output(id.0 as usize);
         Ok(id)
     }
@@ -708,6 +725,7 @@ impl Mpc184World {
             .and_then(Option::take)
             .ok_or(Error::UnknownJoint(id))?;
         self.lagrange.dirty = true;
+        self.model_size = None;
         match entry.rapier {
             RapierJoint::Impulse(h) => {
                 self.physics.impulse_joints.remove(h, true);
@@ -912,6 +930,12 @@ impl Mpc184World {
     }
 
     /// Advances one time step (`settings.dt`) in `settings.substeps` Rapier calls.
+    ///
+    /// # Errors
+    /// [`Error::Diverged`] when the state turns non-finite or a joint's constraint error passes
+    /// its bound ([`crate::DivergenceLimits`]); it names the joint and the time, and the world
+    /// keeps its last good state, exactly as after the previous successful step (see
+    /// [`crate::divergence`]). Any other error leaves the world as it was too.
     pub fn step(&mut self) -> Result<(), Error> {
         let n = self.settings.substeps;
         if n == 0 || self.settings.dt.is_nan() || self.settings.dt <= 0.0 {
@@ -921,6 +945,15 @@ impl Mpc184World {
                 reason: "dt must be positive and substeps at least 1",
             });
         }
+        self.checkpoint_save();
+        match self.step_unchecked(n) {
+            Ok(()) => Ok(()),
+            Err(e) => Err(self.roll_back(e)),
+        }
+    }
+
+    /// [`Mpc184World::step`] without the checkpoint.
+    fn step_unchecked(&mut self, n: usize) -> Result<(), Error> {
         if !self.started {
             self.started = true;
             if self.settings.backend == Backend::RapierMultibody {
@@ -954,6 +987,7 @@ impl Mpc184World {
             if !ok {
                 return Err(Error::Diverged {
                     time: self.time,
+                    joint: None,
                     reason: format!(
                         "body {:?} has a non-finite pose or velocity",
                         h.into_raw_parts()
@@ -969,7 +1003,7 @@ impl Mpc184World {
         for i in 0..self.joints.len() {
             self.refresh_output(i);
         }
-        Ok(())
+        self.check_divergence()
     }
 
     /// Joint friction on the Rapier backends (an approximation): a velocity motor with target
@@ -1300,19 +1334,7 @@ impl Mpc184World {
         let (v2, w2) = self.point_velocity(e.body2, f2.translation);
         let vel = kinematics::relative_velocity(&a1, f1.translation, f2.translation, v1, v2, w1);
         let omg = kinematics::relative_angular_velocity(&a1, w1, w2);
-        let fp = frame_pair(&e.low, (p1, Vector::ZERO), (p2, Vector::ZERO));
-        let (mut gap, mut angular_gap): (Real, Real) = (0.0, 0.0);
-        for r in &e.rows {
-            let c = r.eval(&fp).value.abs();
-            match r {
-                RowKind::Linear { .. } | RowKind::Screw { .. } | RowKind::Distance { .. } => {
-                    gap = gap.max(c);
-                }
-                // A drive's error is a tracking error, not a gap.
-                RowKind::Drive { .. } => {}
-                RowKind::Angular { .. } => angular_gap = angular_gap.max(c),
-            }
-        }
+        let (gap, angular_gap) = self.joint_gaps(e);
         let Some(e) = &mut self.joints[i] else { return };
         e.output.gap = gap;
         e.output.angular_gap = angular_gap;

@@ -1,0 +1,236 @@
+//! `cargo run --release --bin long_run -- [--substeps-total N] [--substeps N] [--dt S] [--drive W] [--report N]`
+//!
+//! Scene: a hanging chain of 10 revolute-z links (0.2 m, 0.5 kg uniform rods, gravity -Y),
+//! released at 30 deg from the vertical, whose top hinge is turned at `--drive` rad/s (default
+//! 2; 0 lets it hang free) by a drive (DJ). Hinges 3 and 7 have stops at +-0.05 rad, hinges 2, 5
+//! and 8 Coulomb friction (mu 0.1 on a 0.02 m pin), hinge 9 a lock at +-0.3 rad (it latches
+//! when the chain's end first bends that far and holds from then on). Lagrange backend,
+//! `--dt` 1/60 s in `--substeps` 4; the run lasts `--substeps-total` substeps (default one
+//! million: 250 000 steps, 69 minutes of simulated time).
+//!
+//! Expected: no NaN and no divergence; the energy balance (kinetic + potential + spring +
+//! dissipated - work of the drive, minus its value at t = 0) stays bounded, without secular
+//! growth; the resident memory (`VmRSS` from `/proc/self/status`) stays flat after the first
+//! report. Every `--report` substeps (default 100 000) a line gives the time, the balance
+//! (now, mean and largest magnitude over the interval, relative to the energy scale: the
+//! largest kinetic energy seen plus the chain's potential-energy range `m g L`), the joint
+//! states, the RSS and the speed. The last line, `RESULT ...`, is machine-readable (the ignored
+//! test `tests/long_run.rs` runs this demo and reads it).
+
+#[path = "common/mod.rs"]
+mod common;
+
+use std::process::ExitCode;
+use std::time::Instant;
+
+use common::{Args, RunResult};
+use rapier3d_mpc184::math::rapier::prelude::{MassProperties, RigidBodyBuilder};
+use rapier3d_mpc184::prelude::*;
+
+const HELP: &str =
+    "long_run: one million substeps of a driven 10-link chain with stops, locks and friction
+
+OPTIONS:
+    --substeps-total N   substeps to run (default 1000000)
+    --substeps N         substeps per step (default 4)
+    --dt S               time step (default 1/60; a/b accepted)
+    --drive W            top hinge speed, rad/s (default 2; 0: no drive)
+    --report N           substeps between report lines (default 100000)
+    --help               this text";
+
+const LINKS: usize = 10;
+const LENGTH: Real = 0.2;
+const MASS: Real = 0.5;
+const G: Real = 9.81;
+
+struct Opts {
+    total: usize,
+    substeps: usize,
+    dt: Real,
+    drive: Real,
+    report: usize,
+}
+
+fn main() -> ExitCode {
+    common::main("long_run", HELP, parse, run)
+}
+
+fn parse(a: &mut Args) -> Result<Opts, String> {
+    Ok(Opts {
+        total: a.count("substeps-total", 1_000_000, 1)?,
+        substeps: a.count("substeps", 4, 1)?,
+        dt: a.real("dt", 1.0 / 60.0)?,
+        drive: a.get("drive", 2.0)?,
+        report: a.count("report", 100_000, 1)?,
+    })
+}
+
+/// Resident set size of this process (kB), from `/proc/self/status` (0 where unavailable).
+fn rss_kb() -> u64 {
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("VmRSS:"))
+                .and_then(|l| l.split_whitespace().nth(1))
+                .and_then(|v| v.parse().ok())
+        })
+        .unwrap_or(0)
+}
+
+fn chain(o: &Opts) -> Result<(Mpc184World, Vec<JointId>), Error> {
+    let mut world = Mpc184World::new(WorldSettings {
+        dt: o.dt,
+        substeps: o.substeps,
+        backend: Backend::Lagrange,
+        ..Default::default()
+    });
+    world.physics.gravity = Vector::new(0.0, -G, 0.0);
+    let th = (30.0 as Real).to_radians();
+    let dir = Vector::new(th.sin(), -th.cos(), 0.0);
+    // A uniform rod along its length `dir` (in the x-y plane): m L^2 / 12 across, small along.
+    let across = MASS * LENGTH * LENGTH / 12.0;
+    let mut joints = Vec::new();
+    let mut prev = None;
+    for k in 0..LINKS {
+        let centre = dir * ((k as Real + 0.5) * LENGTH);
+        let rod = world.physics.bodies.insert(
+            RigidBodyBuilder::dynamic()
+                .translation(centre)
+                .rotation(Vector::new(0.0, 0.0, th))
+                .additional_mass_properties(MassProperties::new(
+                    Vector::ZERO,
+                    MASS,
+                    Vector::new(across, 1e-2 * across, across),
+                ))
+                .can_sleep(false),
+        );
+        let mut joint = Mpc184Joint::revolute(Axis::Z, dir * (k as Real * LENGTH));
+        if k == 3 || k == 7 {
+            joint = joint.with_stop(Dof::RotZ, -0.05, 0.05);
+        }
+        if k == 2 || k == 5 || k == 8 {
+            joint = joint.with_friction(Friction::coulomb(0.1, [Some(0.02), Some(0.02), None]));
+        }
+        if k == 9 {
+            joint = joint.with_lock(Dof::RotZ, -0.3, 0.3);
+        }
+        let id = world.insert_joint(prev, Some(rod), joint)?;
+        joints.push(id);
+        prev = Some(rod);
+    }
+    if o.drive != 0.0 {
+        world.set_drive(joints[0], Dof::RotZ, DriveProfile::constant_rate(o.drive))?;
+    }
+    Ok((world, joints))
+}
+
+fn run(o: Opts) -> RunResult {
+    let steps = o.total.div_ceil(o.substeps);
+    let total = steps * o.substeps;
+    println!(
+        "long run: {LINKS}-link chain, stops on hinges 3 and 7, friction on 2, 5, 8, lock on 9, \
+         drive {} rad/s; dt {:.5} s in {} substeps: {steps} steps, {total} substeps, {:.0} s",
+        o.drive,
+        o.dt,
+        o.substeps,
+        steps as Real * o.dt
+    );
+    let (mut world, joints) = chain(&o)?;
+    let e0 = world.energy().total;
+    // Energy scale: the largest kinetic energy seen plus the potential range of the chain.
+    let potential_range = LINKS as Real * MASS * G * LINKS as Real * LENGTH;
+    let mut max_kinetic: Real = 0.0;
+    let (mut max_abs, mut sum, mut n_sum, mut interval_max): (Real, Real, usize, Real) =
+        (0.0, 0.0, 0, 0.0);
+    let mut nan = 0usize;
+    let rss_start = rss_kb();
+    let mut rss_first_report = 0;
+    let mut rss_max = rss_start;
+    let every = o.report.div_ceil(o.substeps).max(1);
+    let started = Instant::now();
+    let mut last = (Instant::now(), 0usize);
+    let mut stops_seen = 0usize;
+    let mut slips = 0usize;
+    let mut bend = [0.0 as Real; LINKS];
+    println!(
+        "{:>10} {:>10} {:>12} {:>12} {:>12} {:>6} {:>5} {:>6} {:>9} {:>12}",
+        "substeps",
+        "t s",
+        "balance",
+        "mean",
+        "max |b|",
+        "stops",
+        "lock",
+        "slip",
+        "RSS kB",
+        "substeps/s"
+    );
+    let mut status = Ok(());
+    for s in 1..=steps {
+        if let Err(e) = world.step() {
+            status = Err(e);
+            break;
+        }
+        let e = world.energy();
+        if !(e.total.is_finite() && e.kinetic.is_finite()) {
+            nan += 1;
+        }
+        max_kinetic = max_kinetic.max(e.kinetic);
+        let b = e.total - e0;
+        max_abs = max_abs.max(b.abs());
+        interval_max = interval_max.max(b.abs());
+        sum += b;
+        n_sum += 1;
+        for (k, j) in joints.iter().enumerate() {
+            let out = world.output(*j)?;
+            bend[k] = bend[k].max(out.measure[5].abs());
+            stops_seen += usize::from(out.stops > 0);
+            slips += usize::from(out.friction.is_some_and(|f| f.slipping));
+        }
+        if s % every == 0 || s == steps {
+            let scale = max_kinetic + potential_range;
+            let rss = rss_kb();
+            rss_max = rss_max.max(rss);
+            if rss_first_report == 0 {
+                rss_first_report = rss;
+            }
+            let done = s * o.substeps;
+            let rate = (done - last.1) as f64 / last.0.elapsed().as_secs_f64();
+            last = (Instant::now(), done);
+            let locks = world.output(joints[LINKS - 1])?.locks;
+            println!(
+                "{done:>10} {:>10.1} {:>+12.3e} {:>+12.3e} {:>12.3e} {stops_seen:>6} {locks:>5} {slips:>6} {rss:>9} {rate:>12.0}",
+                world.time(),
+                b / scale,
+                sum / n_sum as Real / scale,
+                interval_max / scale
+            );
+            (sum, n_sum, interval_max, stops_seen, slips) = (0.0, 0, 0.0, 0, 0);
+        }
+    }
+    let wall = started.elapsed().as_secs_f64();
+    let done = (world.time() / o.dt).round() as usize * o.substeps;
+    let scale = max_kinetic + potential_range;
+    let rss_end = rss_kb();
+    println!(
+        "\n{done} substeps in {wall:.1} s wall ({:.0} substeps/s); energy scale {scale:.4} J \
+         (largest kinetic {max_kinetic:.4} J + m g L {potential_range:.4} J); largest |balance| \
+         {max_abs:.4e} J = {:.3e} of the scale; RSS {rss_start} kB at the start, \
+         {rss_first_report} kB at the first report, {rss_end} kB at the end (largest {rss_max} kB)",
+        done as f64 / wall,
+        max_abs / scale
+    );
+    let bend: Vec<String> = bend.iter().map(|b| format!("{b:.2}")).collect();
+    println!("largest hinge angle per hinge (rad): {}", bend.join(" "));
+    let diverged = match &status {
+        Ok(()) => "none".to_string(),
+        Err(e) => format!("\"{e}\""),
+    };
+    println!(
+        "RESULT substeps={done} nan={nan} diverged={diverged} max_abs_balance={max_abs:e} \
+         energy_scale={scale:e} rss_start_kb={rss_start} rss_first_report_kb={rss_first_report} \
+         rss_end_kb={rss_end} rss_max_kb={rss_max} wall_s={wall:.2}"
+    );
+    status.map_err(Into::into)
+}
