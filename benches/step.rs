@@ -5,8 +5,14 @@
 //!   timed steps (Rapier's backends blow up at 1:1000, see `docs/charts/stability_chain.png`);
 //! - `mixed1000/<backend>`: 1000 joints of five kinds, 200 independent five-body arms hanging from
 //!   the ground: revolute z, spherical, cylindrical z, revolute x and translational (the kinds
-//!   every backend takes), on 1000 bodies; Lagrange and Rapier impulse only (Rapier multibody did
-//!   not finish a sample within 100 s on it).
+//!   every backend takes), on 1000 bodies, every backend (Rapier multibody runs since each
+//!   grounded multibody joint has its own fixed root: with one shared ground body the 200 arms
+//!   were one multibody and a step took seconds);
+//! - `idle100/<case>` ("model no more than a scene needs", Lagrange): the 100-link chain as built,
+//!   with an inactive stop on every joint (limits at +-10 rad, never reached), and with a second
+//!   100-link chain hanging at rest beside it, allowed to sleep (asleep after the 3 s run before
+//!   timing) or kept awake. The ratios to the first case are the cost of an inactive stop and of
+//!   a sleeping island (`cargo run --release --bin joint_bench -- --model` prints the same table).
 //!
 //! One iteration is one `step()` at dt = 1/60 with 4 substeps on a world that keeps moving (no
 //! reset between iterations). Single thread, f64 by default. criterion is built without its
@@ -102,17 +108,100 @@ fn bench(c: &mut Criterion) {
         .sample_size(10)
         .warm_up_time(Duration::from_millis(500))
         .measurement_time(Duration::from_secs(3));
-    // Rapier multibody is left out here: on this scene `cargo bench -- --quick` did not finish
-    // its first sample within 100 s (not investigated yet).
-    for backend in [Backend::Lagrange, Backend::RapierImpulse] {
-        let Ok(mut world) = mixed(backend) else {
-            continue;
+    for backend in BACKENDS {
+        let mut world = match mixed(backend) {
+            Ok(w) => w,
+            Err(e) => {
+                println!("mixed1000/{}: not run: {e}", backend.name());
+                continue;
+            }
         };
         group.bench_function(backend.name(), |bench| {
             bench.iter(|| black_box(world.step().is_ok()));
         });
     }
     group.finish();
+
+    let mut group = c.benchmark_group("idle100");
+    group
+        .sample_size(10)
+        .warm_up_time(Duration::from_millis(500))
+        .measurement_time(Duration::from_secs(3));
+    for (name, stops, resting) in [
+        ("chain", false, None),
+        ("chain+inactive_stops", true, None),
+        ("chain+sleeping_chain", false, Some(true)),
+        ("chain+awake_chain", false, Some(false)),
+    ] {
+        let mut b = match idle_scene(stops, resting) {
+            Ok(b) => b,
+            Err(e) => {
+                println!("idle100/{name}: not run: {e}");
+                continue;
+            }
+        };
+        // 3 s untimed: time for Rapier to put the resting chain to sleep.
+        if (0..180).any(|_| b.world.step().is_err()) {
+            println!("idle100/{name}: failed during the untimed start");
+            continue;
+        }
+        let asleep = b
+            .world
+            .physics
+            .bodies
+            .iter()
+            .filter(|(_, rb)| rb.is_sleeping())
+            .count();
+        println!("idle100/{name}: {asleep} bodies asleep when timing starts");
+        group.bench_function(name, |bench| {
+            bench.iter(|| black_box(b.world.step().is_ok()));
+        });
+    }
+    group.finish();
+}
+
+/// The 100-link chain (Lagrange, ratio 1, 20 deg), optionally with a stop at +-10 rad on every
+/// joint and a second 100-link chain hanging at rest 5 m away (`Some(can_sleep)`).
+fn idle_scene(stops: bool, resting: Option<bool>) -> Result<benchmarks::Benchmark, Error> {
+    let mut b = benchmarks::chain(
+        settings(Backend::Lagrange),
+        100,
+        CHAIN_LINK_LENGTH,
+        CHAIN_LINK_MASS,
+        1.0,
+        20f64.to_radians() as Real,
+    )?;
+    if stops {
+        // Re-insert each joint (time 0: same frames) with a stop far away.
+        for k in 0..b.joints.len() {
+            let [b1, b2] = b.joint_bodies[k];
+            let j = b.world.remove_joint(b.joints[k])?;
+            b.joints[k] = b
+                .world
+                .insert_joint(b1, b2, j.with_stop(Dof::RotZ, -10.0, 10.0))?;
+        }
+    }
+    if let Some(can_sleep) = resting {
+        let mut prev = None;
+        for k in 0..100 {
+            let m = CHAIN_LINK_MASS;
+            let bead = b.world.physics.bodies.insert(
+                RigidBodyBuilder::dynamic()
+                    .translation(Vector::new(5.0, -0.1 * (k + 1) as Real, 0.0))
+                    .additional_mass_properties(MassProperties::new(
+                        Vector::ZERO,
+                        m,
+                        Vector::splat(m * benchmarks::BEAD_GYRATION_SQUARED),
+                    ))
+                    .can_sleep(can_sleep),
+            );
+            let pivot = Vector::new(5.0, -0.1 * k as Real, 0.0);
+            b.world
+                .insert_joint(prev, Some(bead), Mpc184Joint::revolute(Axis::Z, pivot))?;
+            prev = Some(bead);
+        }
+    }
+    Ok(b)
 }
 
 criterion_group!(benches, bench);

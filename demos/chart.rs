@@ -14,6 +14,17 @@
 //!   precision levels 1e-1 and 1e-3 and the real-time line (1 CPU second per simulated second);
 //! - `stability_chain.{png,svg}`: the chain's end-mass ratio (1..1000) x substeps (1..8) at
 //!   dt = 1/60 for each method, each cell ok / gap > 1 cm / blew up;
+//! - `stability_penalty.{png,svg}` (and `.csv`): the A01 pendulum with a penalty revolute
+//!   (KEYOPT(2) = 1), stiffness 1e2..1e10 (plus Lagrange, k = infinity) x dt 1/30..1/960 at one
+//!   substep, 5 s against the exact pendulum: each cell blew up / joint gap > 0.1 m (the
+//!   soft joint's deflection; the run stops there) / error > 1e-1 m / <= 1e-1 m / <= 1e-3 m (the
+//!   IFToMM levels), labelled with the error;
+//! - `stability_singular.{png,svg}` (and `.csv`): the A02 parallelogram four-bar released at
+//!   rest at `delta` = 1e-4..1 rad above its singular pose (cranks collinear with the ground
+//!   link), so that it crawls through that pose and through the opposite one (`theta = -pi`),
+//!   x dt 1/30..1/960 at one substep, 4 s against the exact motion (RK4), per method: blew up /
+//!   branch switch (the coupler turns by more than 0.5 rad: the anti-parallelogram branch) /
+//!   error > 1e-1 m (stuck, turned back or out of phase) / <= 1e-1 m / <= 1e-3 m;
 //! - `scaling_chain.{png,svg}`: cost per step against the number of links (10..1000);
 //! - `summary.md`: per scene the Pareto front, the cheapest run of each method reaching 1e-1 and
 //!   1e-3, and where each method fails.
@@ -60,11 +71,13 @@ const HELP: &str = "chart: the work-precision study (error against CPU time) of 
 Runs IFToMM A01 (pendulum), A02 (parallelogram four-bar), A04 (Bricard), a 100-link chain
 with a 1:1000 end mass and the spatial slider-crank on Lagrange, penalty (k = 1e4, 1e6, 1e8),
 Rapier impulse and Rapier multibody joints over dt = 1/30..1/960 and 1, 2, 4, 8 substeps; writes
-runs.csv, work-precision charts, a chain stability map and a cost-against-N chart (PNG and SVG)
-and summary.md. The full sweep takes about 10 minutes on 2 cores.
+runs.csv, work-precision charts, stability maps (chain end-mass ratio x substeps, penalty
+stiffness x dt, four-bar start distance from its singular pose x dt), a cost-against-N chart
+(PNG and SVG) and summary.md. The full sweep takes about 10 minutes on 2 cores.
 
 OPTIONS:
     --quick      a short sweep (2 step sizes, 2 substep counts, 1 s scenes, 20-link chain)
+    --maps       only the three stability maps (their charts, CSVs and summary sections)
     --out DIR    output directory (default docs/charts)
     --help       this text";
 
@@ -77,6 +90,7 @@ const OUTPUT_STEP: f64 = 1.0 / 30.0;
 
 fn main() -> ExitCode {
     let mut quick = false;
+    let mut maps = false;
     let mut out = PathBuf::from("docs/charts");
     let mut args = std::env::args().skip(1);
     while let Some(a) = args.next() {
@@ -86,6 +100,7 @@ fn main() -> ExitCode {
                 return ExitCode::SUCCESS;
             }
             "--quick" => quick = true,
+            "--maps" => maps = true,
             "--out" => match args.next() {
                 Some(d) => out = PathBuf::from(d),
                 None => return usage("--out needs a value"),
@@ -93,7 +108,11 @@ fn main() -> ExitCode {
             _ => return usage(&format!("unexpected argument `{a}`")),
         }
     }
-    match run(&Config::new(quick), &out) {
+    let cfg = Config {
+        maps_only: maps,
+        ..Config::new(quick)
+    };
+    match run(&cfg, &out) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("chart: {e}");
@@ -110,6 +129,8 @@ fn usage(msg: &str) -> ExitCode {
 /// The sweep's extent.
 struct Config {
     quick: bool,
+    /// Only the three stability maps (`--maps`).
+    maps_only: bool,
     /// Time steps as 1/x.
     rates: Vec<u32>,
     substeps: Vec<usize>,
@@ -124,6 +145,14 @@ struct Config {
     stability_ratios: Vec<f64>,
     stability_secs: f64,
     scaling_n: Vec<usize>,
+    /// Penalty map: stiffnesses (N/m and N m/rad), step rates (1/dt) and simulated seconds.
+    penalty_ks: Vec<f64>,
+    penalty_rates: Vec<u32>,
+    penalty_secs: f64,
+    /// Singular four-bar map: start angles above the singular pose (rad), step rates, seconds.
+    singular_deltas: Vec<f64>,
+    singular_rates: Vec<u32>,
+    singular_secs: f64,
 }
 
 impl Config {
@@ -131,6 +160,7 @@ impl Config {
         if quick {
             Self {
                 quick,
+                maps_only: false,
                 rates: vec![30, 60],
                 substeps: vec![1, 2],
                 durations: [1.0; 6],
@@ -141,10 +171,17 @@ impl Config {
                 stability_ratios: vec![1.0, 1000.0],
                 stability_secs: 0.5,
                 scaling_n: vec![10, 30],
+                penalty_ks: vec![1e3, 1e6, 1e9],
+                penalty_rates: vec![30, 120],
+                penalty_secs: 1.0,
+                singular_deltas: vec![1e-3, 0.1],
+                singular_rates: vec![30, 120],
+                singular_secs: 1.5,
             }
         } else {
             Self {
                 quick,
+                maps_only: false,
                 rates: vec![30, 60, 120, 240, 480, 960],
                 substeps: vec![1, 2, 4, 8],
                 durations: [10.0, 10.0, 10.0, 10.0, 2.0, 5.0],
@@ -155,6 +192,12 @@ impl Config {
                 stability_ratios: vec![1.0, 10.0, 100.0, 1000.0],
                 stability_secs: 2.0,
                 scaling_n: vec![10, 30, 100, 300, 1000],
+                penalty_ks: vec![1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10],
+                penalty_rates: vec![30, 60, 120, 240, 480, 960],
+                penalty_secs: 5.0,
+                singular_deltas: vec![1e-4, 1e-3, 1e-2, 3e-2, 0.1, 0.3, 1.0],
+                singular_rates: vec![30, 60, 120, 240, 480, 960],
+                singular_secs: 4.0,
             }
         }
     }
@@ -654,12 +697,21 @@ fn run(cfg: &Config, out: &Path) -> DynResult<()> {
     let wp_runs = SCENES.len() * METHODS.len() * cfg.rates.len() * cfg.substeps.len();
     let stab = METHODS.len() * cfg.stability_ratios.len() * cfg.substeps.len();
     let scal = 4 * cfg.scaling_n.len();
+    let pen = (cfg.penalty_ks.len() + 1) * cfg.penalty_rates.len();
+    let sing = METHODS.len() * cfg.singular_deltas.len() * cfg.singular_rates.len();
     let mut progress = Progress {
-        total: SCENES.len() + wp_runs + stab + scal,
+        total: if cfg.maps_only {
+            stab + pen + sing
+        } else {
+            SCENES.len() + wp_runs + stab + scal + pen + sing
+        },
         done: 0,
         start: Instant::now(),
         tty: std::io::stderr().is_terminal(),
     };
+    if cfg.maps_only {
+        return maps_only(cfg, out, &mut progress);
+    }
     let mut runs = Vec::new();
     let mut refs = Vec::new();
     for scene in SCENES {
@@ -704,6 +756,8 @@ fn run(cfg: &Config, out: &Path) -> DynResult<()> {
         refs.push((scene, r.how, r.floor));
     }
     let stability = stability_map(cfg, &mut progress);
+    let penalty = penalty_map(cfg, &mut progress);
+    let singular = singular_map(cfg, &mut progress);
     let scaling = scaling(cfg, &mut progress);
     progress.finish();
     let wall = progress.start.elapsed().as_secs_f64();
@@ -750,11 +804,45 @@ fn run(cfg: &Config, out: &Path) -> DynResult<()> {
         )?;
     }
     Chart::Stability(cfg, &stability).save(out, "stability_chain", (1000, 680), &mut files)?;
+    Chart::Penalty(cfg, &penalty).save(out, "stability_penalty", (900, 640), &mut files)?;
+    Chart::Singular(cfg, &singular).save(out, "stability_singular", (1100, 720), &mut files)?;
+    write_map_csv(&out.join("stability_penalty.csv"), &penalty)?;
+    write_map_csv(&out.join("stability_singular.csv"), &singular)?;
+    files.push("stability_penalty.csv".into());
+    files.push("stability_singular.csv".into());
     Chart::Scaling(&scaling).save(out, "scaling_chain", (900, 600), &mut files)?;
-    let summary = summary(cfg, &runs, &refs, &stability, &scaling, wall);
+    let mut summary = summary(cfg, &runs, &refs, &stability, &scaling, wall);
+    map_summary(&mut summary, cfg, &penalty, &singular);
     std::fs::write(out.join("summary.md"), &summary)?;
     files.push("summary.md".into());
     println!("{summary}");
+    println!(
+        "wrote {} files to {}: {}",
+        files.len(),
+        out.display(),
+        files.join(" ")
+    );
+    Ok(())
+}
+
+/// `--maps`: the three stability maps only.
+fn maps_only(cfg: &Config, out: &Path, progress: &mut Progress) -> DynResult<()> {
+    let stability = stability_map(cfg, progress);
+    let penalty = penalty_map(cfg, progress);
+    let singular = singular_map(cfg, progress);
+    progress.finish();
+    let wall = progress.start.elapsed().as_secs_f64();
+    let mut files = Vec::new();
+    Chart::Stability(cfg, &stability).save(out, "stability_chain", (1000, 680), &mut files)?;
+    Chart::Penalty(cfg, &penalty).save(out, "stability_penalty", (900, 640), &mut files)?;
+    Chart::Singular(cfg, &singular).save(out, "stability_singular", (1100, 720), &mut files)?;
+    write_map_csv(&out.join("stability_penalty.csv"), &penalty)?;
+    write_map_csv(&out.join("stability_singular.csv"), &singular)?;
+    files.push("stability_penalty.csv".into());
+    files.push("stability_singular.csv".into());
+    let mut s = format!("# Stability maps\n\nWall time {wall:.0} s.\n");
+    map_summary(&mut s, cfg, &penalty, &singular);
+    println!("{s}");
     println!(
         "wrote {} files to {}: {}",
         files.len(),
@@ -921,6 +1009,8 @@ enum Chart<'a> {
         energy: bool,
     },
     Stability(&'a Config, &'a [Cell]),
+    Penalty(&'a Config, &'a [MapCell]),
+    Singular(&'a Config, &'a [MapCell]),
     Scaling(&'a [Cost]),
     /// Trajectory error against the substep h (the order of each method).
     Convergence {
@@ -960,6 +1050,8 @@ impl Chart<'_> {
                 energy,
             } => work_precision(&root, caption, y_desc, runs, *energy)?,
             Chart::Stability(cfg, cells) => draw_stability(&root, cfg, cells)?,
+            Chart::Penalty(cfg, cells) => draw_penalty(&root, cfg, cells)?,
+            Chart::Singular(cfg, cells) => draw_singular(&root, cfg, cells)?,
             Chart::Scaling(costs) => draw_scaling(&root, costs)?,
             Chart::Convergence { caption, runs } => draw_convergence(&root, caption, runs)?,
         }
@@ -1382,6 +1474,470 @@ where
         .label_font(("sans-serif", 13))
         .draw()?;
     Ok(())
+}
+
+/// One cell of the penalty or singular-pose map.
+#[derive(Clone, Debug)]
+struct MapCell {
+    method: Method,
+    /// Row value: penalty stiffness (infinity for the Lagrange row) or start distance (rad).
+    row: f64,
+    dt: f64,
+    traj: f64,
+    gap: f64,
+    /// "<=1e-3", "<=1e-1", ">1e-1", "gap" (> 0.1 m), "branch switch", "blew up", "skipped".
+    class: &'static str,
+    status: String,
+}
+
+/// The accuracy class of a run: its status first, then the IFToMM levels of its error.
+fn classify(status: &str, traj: f64) -> &'static str {
+    if status.starts_with("skipped") {
+        "skipped"
+    } else if status.contains("branch switch") {
+        "branch switch"
+    } else if status.starts_with("failed: gap") {
+        "gap"
+    } else if status != "ok" {
+        "blew up"
+    } else if traj <= 1e-3 {
+        "<=1e-3"
+    } else if traj <= 1e-1 {
+        "<=1e-1"
+    } else {
+        ">1e-1"
+    }
+}
+
+fn class_color(class: &str) -> RGBColor {
+    match class {
+        "<=1e-3" => RGBColor(110, 190, 110),
+        "<=1e-1" => RGBColor(200, 225, 120),
+        ">1e-1" => RGBColor(250, 170, 70),
+        "branch switch" => RGBColor(170, 120, 210),
+        "gap" => RGBColor(205, 130, 90),
+        "blew up" => RGBColor(220, 70, 60),
+        _ => RGBColor(190, 190, 190),
+    }
+}
+
+/// The A01 pendulum (released horizontally) with a penalty revolute of stiffness `k` (N/m and
+/// N m/rad; infinity: the Lagrange method) at one substep of `dt`, for `cfg.penalty_secs`
+/// against the exact pendulum.
+fn penalty_map(cfg: &Config, progress: &mut Progress) -> Vec<MapCell> {
+    let secs = cfg.penalty_secs;
+    let w2 = G as f64 / (1.0 + PENDULUM_INERTIA);
+    let exact = rk4_reference(
+        |t| -w2 * t.sin(),
+        |t| [t.sin(), -t.cos(), 0.0],
+        std::f64::consts::FRAC_PI_2,
+        0.0,
+        secs,
+    );
+    let mut cells = Vec::new();
+    let rows: Vec<f64> = cfg
+        .penalty_ks
+        .iter()
+        .copied()
+        .chain([f64::INFINITY])
+        .collect();
+    for &k in &rows {
+        let method = if k.is_finite() {
+            Method::Penalty(k)
+        } else {
+            Method::Lagrange
+        };
+        for &rate in &cfg.penalty_rates {
+            let dt = 1.0 / rate as f64;
+            progress.tick(&format!("penalty map k = {k:.0e} 1/{rate}"));
+            let Some(b) = build(Scene::A01, cfg, method, dt, 1) else {
+                continue;
+            };
+            let (_, traj, _, gap, status) = simulate(
+                Scene::A01,
+                b,
+                dt,
+                secs,
+                Some(&exact),
+                cfg.budget,
+                0.1 * Scene::A01.length(),
+            );
+            cells.push(MapCell {
+                method,
+                row: k,
+                dt,
+                traj,
+                gap,
+                class: classify(&status, traj),
+                status,
+            });
+        }
+    }
+    cells
+}
+
+/// The A02 parallelogram four-bar (three 1 m, 1 kg bars; `benchmarks::four_bar_parallelogram`)
+/// released at rest with the cranks at `theta0` from +X: the singular pose is `theta0 = 0`
+/// (cranks collinear with the ground link).
+fn four_bar_at(settings: WorldSettings, theta0: f64) -> Result<Benchmark, rapier3d_mpc184::Error> {
+    use rapier3d_mpc184::math::rapier::prelude::{MassProperties, RigidBodyBuilder};
+    let (m, l) = (1.0 as Real, 1.0 as Real);
+    let it = m * l * l / 12.0;
+    let axial = benchmarks::FOUR_BAR_AXIAL_INERTIA;
+    let th = theta0 as Real;
+    let dir = Vector::new(th.cos(), th.sin(), 0.0);
+    let mut world = Mpc184World::new(settings);
+    world.physics.gravity = Vector::new(0.0, -G, 0.0);
+    let mut body = |centre: Vector, angle: Real, inertia: Vector| {
+        world.physics.bodies.insert(
+            RigidBodyBuilder::dynamic()
+                .translation(centre)
+                .rotation(Vector::new(0.0, 0.0, angle))
+                .additional_mass_properties(MassProperties::new(Vector::ZERO, m, inertia))
+                .can_sleep(false),
+        )
+    };
+    // Crank and rocker lie along their local Y (as in the benchmark), turned by theta0 - pi/2.
+    let turn = th - std::f64::consts::FRAC_PI_2 as Real;
+    let crank = body(dir * (0.5 * l), turn, Vector::new(it, axial, it));
+    let coupler = body(
+        dir * l + Vector::new(0.5 * l, 0.0, 0.0),
+        0.0,
+        Vector::new(axial, it, it),
+    );
+    let o1 = Vector::new(l, 0.0, 0.0);
+    let rocker = body(o1 + dir * (0.5 * l), turn, Vector::new(it, axial, it));
+    let mut joints = Vec::new();
+    let mut joint_bodies = Vec::new();
+    for (b1, b2, at) in [
+        (None, Some(crank), Vector::ZERO),
+        (Some(crank), Some(coupler), dir * l),
+        (Some(coupler), Some(rocker), o1 + dir * l),
+        (None, Some(rocker), o1),
+    ] {
+        joints.push(world.insert_joint(b1, b2, Mpc184Joint::revolute(Axis::Z, at))?);
+        joint_bodies.push([b1, b2]);
+    }
+    // Heights of the centres: (L/2, L, L/2) sin theta; lowest 2 m g L below the pivots.
+    let potential = 2.0 * m * G * l * th.sin();
+    Ok(Benchmark {
+        world,
+        bodies: vec![crank, coupler, rocker],
+        joints,
+        joint_bodies,
+        initial_energy: potential,
+        energy_scale: potential + 2.0 * m * G * l,
+        probe: Probe {
+            body: crank,
+            local: Vector::new(0.0, 0.5 * l, 0.0),
+        },
+        duration: 4.0,
+    })
+}
+
+/// The four-bar released at `delta` above its singular pose, per method and dt (one substep),
+/// for `cfg.singular_secs` against RK4 on `theta'' = -(6 g / 5) cos theta`.
+fn singular_map(cfg: &Config, progress: &mut Progress) -> Vec<MapCell> {
+    let secs = cfg.singular_secs;
+    let mut cells = Vec::new();
+    for &delta in &cfg.singular_deltas {
+        let exact = rk4_reference(
+            |t| -1.2 * G as f64 * t.cos(),
+            |t| [t.cos(), t.sin(), 0.0],
+            delta,
+            0.0,
+            secs,
+        );
+        for method in METHODS {
+            for &rate in &cfg.singular_rates {
+                let dt = 1.0 / rate as f64;
+                progress.tick(&format!(
+                    "singular map {} delta {delta:.0e} 1/{rate}",
+                    method.name()
+                ));
+                let Ok(mut b) = four_bar_at(settings(method, dt, 1), delta) else {
+                    continue;
+                };
+                if let Method::Penalty(k) = method {
+                    let k = -(k as Real);
+                    if b.set_method(ConstraintMethod::Penalty { disp: k, rot: k })
+                        .is_err()
+                    {
+                        continue;
+                    }
+                }
+                let (_, traj, _, gap, status) = simulate(
+                    Scene::A02,
+                    b,
+                    dt,
+                    secs,
+                    Some(&exact),
+                    cfg.budget,
+                    0.1 * Scene::A02.length(),
+                );
+                cells.push(MapCell {
+                    method,
+                    row: delta,
+                    dt,
+                    traj,
+                    gap,
+                    class: classify(&status, traj),
+                    status,
+                });
+            }
+        }
+    }
+    cells
+}
+
+fn write_map_csv(path: &Path, cells: &[MapCell]) -> DynResult<()> {
+    let mut s = String::from("method,row,dt,traj_err,max_gap,class,status\n");
+    for c in cells {
+        writeln!(
+            s,
+            "{},{:.4e},{:.8},{:.4e},{:.4e},{},{}",
+            c.method.name(),
+            c.row,
+            c.dt,
+            c.traj,
+            c.gap,
+            c.class,
+            c.status.replace(',', ";")
+        )?;
+    }
+    std::fs::write(path, s)?;
+    Ok(())
+}
+
+/// One grid panel: columns `xs` (labels), rows `ys` (labels, bottom up), each cell a colour and
+/// a label.
+fn draw_grid<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    caption: &str,
+    x_desc: &str,
+    xs: &[String],
+    ys: &[String],
+    cell: impl Fn(usize, usize) -> Option<(RGBColor, String)>,
+    font: u32,
+) -> DynResult<()>
+where
+    DB::ErrorType: 'static,
+{
+    let (nx, ny) = (xs.len() as i32, ys.len() as i32);
+    let mut chart = ChartBuilder::on(area)
+        .caption(caption, ("sans-serif", 16))
+        .margin(8)
+        .x_label_area_size(35)
+        .y_label_area_size(60)
+        .build_cartesian_2d(0f64..nx as f64, 0f64..ny as f64)?;
+    let label = |v: f64, names: &[String]| {
+        let i = (v - 0.5).round();
+        if (v - 0.5 - i).abs() < 1e-6 && i >= 0.0 && (i as usize) < names.len() {
+            names[i as usize].clone()
+        } else {
+            String::new()
+        }
+    };
+    chart
+        .configure_mesh()
+        .disable_mesh()
+        .x_labels(nx as usize * 2 + 1)
+        .y_labels(ny as usize * 2 + 1)
+        .x_label_formatter(&|x| label(*x, xs))
+        .y_label_formatter(&|y| label(*y, ys))
+        .x_desc(x_desc)
+        .label_style(("sans-serif", 12))
+        .axis_desc_style(("sans-serif", 12))
+        .draw()?;
+    for i in 0..xs.len() {
+        for j in 0..ys.len() {
+            let (color, text) = cell(i, j).unwrap_or((RGBColor(240, 240, 240), "n/a".to_string()));
+            let (x, y) = (i as f64, j as f64);
+            chart.draw_series(std::iter::once(Rectangle::new(
+                [(x + 0.03, y + 0.03), (x + 0.97, y + 0.97)],
+                color.filled(),
+            )))?;
+            chart.draw_series(std::iter::once(Text::new(
+                text,
+                (x + 0.08, y + 0.62),
+                ("sans-serif", font).into_font(),
+            )))?;
+        }
+    }
+    Ok(())
+}
+
+fn map_label(c: &MapCell) -> String {
+    match c.class {
+        "blew up" => "blew up".into(),
+        "branch switch" => "branch".into(),
+        "gap" => format!("gap {:.0e}", c.gap),
+        "skipped" => "skipped".into(),
+        _ => format!("{:.0e}", c.traj),
+    }
+}
+
+const MAP_LEGEND: &str = "green <= 1e-3 m, light green <= 1e-1 m, orange > 1e-1 m, brown joint gap > 0.1 m (stopped there), violet branch switch, red blew up, grey n/a";
+
+fn draw_penalty<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    cfg: &Config,
+    cells: &[MapCell],
+) -> DynResult<()>
+where
+    DB::ErrorType: 'static,
+{
+    let title = format!(
+        "penalty pendulum (A01, 90 deg, {} s, 1 substep): stiffness x dt, max bob error vs exact",
+        cfg.penalty_secs
+    );
+    let (top, body) = root.split_vertically(50);
+    top.draw(&Text::new(title, (10, 8), ("sans-serif", 15).into_font()))?;
+    top.draw(&Text::new(
+        MAP_LEGEND,
+        (10, 28),
+        ("sans-serif", 12).into_font(),
+    ))?;
+    let xs: Vec<String> = cfg.penalty_rates.iter().map(|r| format!("1/{r}")).collect();
+    let rows: Vec<f64> = cfg
+        .penalty_ks
+        .iter()
+        .copied()
+        .chain([f64::INFINITY])
+        .collect();
+    let ys: Vec<String> = rows
+        .iter()
+        .map(|k| {
+            if k.is_finite() {
+                format!("k {k:.0e}")
+            } else {
+                "lagrange".into()
+            }
+        })
+        .collect();
+    draw_grid(
+        &body,
+        "k (N/m, N m/rad) against dt (s)",
+        "dt (s)",
+        &xs,
+        &ys,
+        |i, j| {
+            let dt = 1.0 / cfg.penalty_rates[i] as f64;
+            cells
+                .iter()
+                .find(|c| c.row == rows[j] && (c.dt - dt).abs() < 1e-12)
+                .map(|c| (class_color(c.class), map_label(c)))
+        },
+        13,
+    )
+}
+
+fn draw_singular<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    cfg: &Config,
+    cells: &[MapCell],
+) -> DynResult<()>
+where
+    DB::ErrorType: 'static,
+{
+    let title = format!(
+        "parallelogram four-bar (A02) released at rest delta above its singular pose, {} s, 1 substep: delta x dt, max crank-tip error vs exact",
+        cfg.singular_secs
+    );
+    let (top, body) = root.split_vertically(50);
+    top.draw(&Text::new(title, (10, 8), ("sans-serif", 14).into_font()))?;
+    top.draw(&Text::new(
+        MAP_LEGEND,
+        (10, 28),
+        ("sans-serif", 12).into_font(),
+    ))?;
+    let xs: Vec<String> = cfg
+        .singular_rates
+        .iter()
+        .map(|r| format!("1/{r}"))
+        .collect();
+    let ys: Vec<String> = cfg
+        .singular_deltas
+        .iter()
+        .map(|d| format!("{d:.0e}"))
+        .collect();
+    for (panel, method) in body.split_evenly((2, 3)).iter().zip(METHODS) {
+        draw_grid(
+            panel,
+            &method.name(),
+            "dt (s)",
+            &xs,
+            &ys,
+            |i, j| {
+                let dt = 1.0 / cfg.singular_rates[i] as f64;
+                cells
+                    .iter()
+                    .find(|c| {
+                        c.method == method
+                            && c.row == cfg.singular_deltas[j]
+                            && (c.dt - dt).abs() < 1e-12
+                    })
+                    .map(|c| (class_color(c.class), map_label(c)))
+            },
+            10,
+        )?;
+    }
+    Ok(())
+}
+
+/// Appends the two maps' findings to the summary: per row or method, the cells in each class.
+fn map_summary(s: &mut String, cfg: &Config, penalty: &[MapCell], singular: &[MapCell]) {
+    let line = |cells: &[&MapCell]| -> String {
+        cells
+            .iter()
+            .map(|c| {
+                format!(
+                    "1/{:.0} {}{}",
+                    1.0 / c.dt,
+                    c.class,
+                    match c.class {
+                        "blew up" | "branch switch" | "skipped" => String::new(),
+                        "gap" => format!(" ({:.1e} m)", c.gap),
+                        _ => format!(" ({:.1e} m)", c.traj),
+                    }
+                )
+            })
+            .collect::<Vec<_>>()
+            .join("; ")
+    };
+    let _ = writeln!(
+        s,
+        "\n## Penalty stiffness x dt (A01 pendulum, 90 deg, {} s, 1 substep)\n\n| k | cells by dt |\n|---|---|",
+        cfg.penalty_secs
+    );
+    let mut rows: Vec<f64> = penalty.iter().map(|c| c.row).collect();
+    rows.dedup();
+    for k in rows {
+        let mine: Vec<&MapCell> = penalty.iter().filter(|c| c.row == k).collect();
+        let name = if k.is_finite() {
+            format!("{k:.0e}")
+        } else {
+            "lagrange".into()
+        };
+        let _ = writeln!(s, "| {name} | {} |", line(&mine));
+    }
+    let _ = writeln!(
+        s,
+        "\n## Four-bar released delta above its singular pose x dt ({} s, 1 substep)\n\n| method | delta (rad) | cells by dt |\n|---|---|---|",
+        cfg.singular_secs
+    );
+    for method in METHODS {
+        for &d in &cfg.singular_deltas {
+            let mine: Vec<&MapCell> = singular
+                .iter()
+                .filter(|c| c.method == method && c.row == d)
+                .collect();
+            if mine.is_empty() {
+                continue;
+            }
+            let _ = writeln!(s, "| {} | {d:.0e} | {} |", method.name(), line(&mine));
+        }
+    }
 }
 
 fn fmt_run(r: &Run, y: f64) -> String {

@@ -604,13 +604,40 @@ impl Mpc184World {
         // consistent inside Rapier's solver (otherwise the two alternate between our solve and
         // Rapier's and a body resting on a floor creeps).
         let mask = lower::lower(&joint.kind, joint.method, self.settings.backend)?;
+        // On the multibody backend one shared ground body would make every grounded tree a
+        // branch of one multibody rooted there, whose dense solve costs ~(total DOFs)^3 (200
+        // independent five-body arms: seconds per step): each grounded multibody joint gets its
+        // own fixed body instead, and a loop through the ground (a second grounded joint on a
+        // tree that already holds a fixed body) is refused as before.
+        let multibody = self.settings.backend == Backend::RapierMultibody;
+        if multibody
+            && let Some(h) = body1.xor(body2)
+            && self.multibody_grounded(h)
+        {
+            return Err(Error::Unsupported {
+                what: format!(
+                    "{id}: a multibody joint that closes a loop through the ground (the tree of \
+                     its body is grounded already)"
+                ),
+                hint: "multibody joints form trees with body 1 as the parent; use the impulse \
+                       backend for loops"
+                    .into(),
+            });
+        }
+        let grounded = |me: &mut Self| {
+            if multibody {
+                me.physics.bodies.insert(RigidBodyBuilder::fixed())
+            } else {
+                me.ground()
+            }
+        };
         let b1 = match body1 {
             Some(h) => h,
-            None => self.ground(),
+            None => grounded(self),
         };
         let b2 = match body2 {
             Some(h) => h,
-            None => self.ground(),
+            None => grounded(self),
         };
         let pose1 = self.physics.bodies[b1].position().to_owned();
         let pose2 = self.physics.bodies[b2].position().to_owned();
@@ -715,6 +742,21 @@ impl Mpc184World {
         self.model_size = None;
         self.refresh_output(id.0 as usize);
         Ok(id)
+    }
+
+    /// True if `h` is a link of a multibody that holds a fixed body (a grounded tree).
+    fn multibody_grounded(&self, h: RigidBodyHandle) -> bool {
+        let mbs = &self.physics.multibody_joints;
+        mbs.rigid_body_link(h)
+            .and_then(|link| mbs.get_multibody(link.multibody))
+            .is_some_and(|mb| {
+                mb.links().any(|l| {
+                    self.physics
+                        .bodies
+                        .get(l.rigid_body_handle())
+                        .is_some_and(RigidBody::is_fixed)
+                })
+            })
     }
 
     /// Removes a joint (its Rapier joint too).

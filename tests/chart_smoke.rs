@@ -1,7 +1,7 @@
 //! Smoke test of the `chart` binary (the work-precision study): `--quick` into a temporary
-//! directory exits 0 and writes runs.csv with the documented header, every chart as a non-empty
-//! PNG (with the PNG signature) and SVG (with text drawn through the bundled font), and
-//! summary.md; on the pendulum the Lagrange backend is within IFToMM's low precision (1e-1 m) at
+//! directory exits 0 and writes runs.csv with the documented header, every chart (the three
+//! stability maps included) as a non-empty PNG (with the PNG signature) and SVG (with text drawn
+//! through the bundled font), the two map CSVs, and summary.md; on the pendulum the Lagrange backend is within IFToMM's low precision (1e-1 m) at
 //! dt = 1/60 with 2 substeps. A bad flag exits 2.
 //!
 //! Needs the `charts` feature (`cargo test --release --features charts --test chart_smoke`): CI
@@ -49,7 +49,12 @@ fn quick_sweep_writes_every_chart() {
     assert_eq!(pendulum[8], "ok");
     assert!(err > 0.0 && err < 0.1, "pendulum error {err}");
 
-    let mut charts = vec!["stability_chain".to_string(), "scaling_chain".to_string()];
+    let mut charts = vec![
+        "stability_chain".to_string(),
+        "stability_penalty".to_string(),
+        "stability_singular".to_string(),
+        "scaling_chain".to_string(),
+    ];
     for scene in [
         "a01_pendulum",
         "a02_four_bar",
@@ -67,6 +72,22 @@ fn quick_sweep_writes_every_chart() {
         assert!(svg.contains("<svg") && svg.contains("<text"), "{c}.svg");
     }
     assert!(dir.join("summary.md").exists());
+    // The two maps' CSVs: header, and every cell classified.
+    for map in ["stability_penalty", "stability_singular"] {
+        let csv = std::fs::read_to_string(dir.join(format!("{map}.csv"))).expect("map csv");
+        let mut lines = csv.lines();
+        assert_eq!(
+            lines.next(),
+            Some("method,row,dt,traj_err,max_gap,class,status"),
+            "{map}.csv header"
+        );
+        let rows: Vec<&str> = lines.collect();
+        assert!(!rows.is_empty(), "{map}.csv has no cells");
+        assert!(
+            rows.iter().all(|r| r.split(',').count() == 7),
+            "{map}.csv ragged"
+        );
+    }
     let _ = std::fs::remove_dir_all(&dir);
 
     let bad = Command::new(BIN)
