@@ -1779,6 +1779,26 @@ fn map_label(c: &MapCell) -> String {
 
 const MAP_LEGEND: &str = "green <= 1e-3 m, light green <= 1e-1 m, orange > 1e-1 m, brown joint gap > 0.1 m (stopped there), violet branch switch, red blew up, grey n/a";
 
+/// Draws a map's title (at `size` points) and the class legend on a 50-pixel band at the top of
+/// `root`; returns the area below for the grid.
+fn map_header<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    title: &str,
+    size: u32,
+) -> DynResult<DrawingArea<DB, Shift>>
+where
+    DB::ErrorType: 'static,
+{
+    let (top, body) = root.split_vertically(50);
+    top.draw(&Text::new(title, (10, 8), ("sans-serif", size).into_font()))?;
+    top.draw(&Text::new(
+        MAP_LEGEND,
+        (10, 28),
+        ("sans-serif", 12).into_font(),
+    ))?;
+    Ok(body)
+}
+
 fn draw_penalty<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     cfg: &Config,
@@ -1791,13 +1811,7 @@ where
         "penalty pendulum (A01, 90 deg, {} s, 1 substep): stiffness x dt, max bob error vs exact",
         cfg.penalty_secs
     );
-    let (top, body) = root.split_vertically(50);
-    top.draw(&Text::new(title, (10, 8), ("sans-serif", 15).into_font()))?;
-    top.draw(&Text::new(
-        MAP_LEGEND,
-        (10, 28),
-        ("sans-serif", 12).into_font(),
-    ))?;
+    let body = map_header(root, &title, 15)?;
     let xs: Vec<String> = cfg.penalty_rates.iter().map(|r| format!("1/{r}")).collect();
     let rows: Vec<f64> = cfg
         .penalty_ks
@@ -1844,13 +1858,7 @@ where
         "parallelogram four-bar (A02) released at rest delta above its singular pose, {} s, 1 substep: delta x dt, max crank-tip error vs exact",
         cfg.singular_secs
     );
-    let (top, body) = root.split_vertically(50);
-    top.draw(&Text::new(title, (10, 8), ("sans-serif", 14).into_font()))?;
-    top.draw(&Text::new(
-        MAP_LEGEND,
-        (10, 28),
-        ("sans-serif", 12).into_font(),
-    ))?;
+    let body = map_header(root, &title, 14)?;
     let xs: Vec<String> = cfg
         .singular_rates
         .iter()
