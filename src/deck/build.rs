@@ -38,7 +38,7 @@
 //! static run on a Rapier backend. `IC` velocities are ignored there (a note says so).
 //!
 //! Point masses: a body whose MASS21 elements give it no rotary inertia about some axis (point
-//! masses on a line, or a single point mass) gets `1e-6 m r^2` on that axis (`r` the largest
+//! masses on a line, or a single point mass) gets `1e-6 m r^2` (f32: `1e-3 m r^2`) on that axis (`r` the largest
 //! distance of its nodes from the centre of mass, at least 1 cm), so that its rotation follows
 //! its joints instead of being locked (Rapier treats a zero inertia as infinite). The period of
 //! a pendulum changes by 5e-7 of itself; a note says so.
@@ -61,8 +61,17 @@ use crate::math::rapier::prelude::MassProperties;
 use crate::math::{Matrix, Real, Rotation, Vector};
 use crate::world::{DriveProfile, Mpc184World, WorldSettings};
 
-/// Relative rotary inertia given to point-mass bodies (see the module docs).
+/// Relative rotary inertia given to point-mass bodies (see the module docs): `1e-6` in f64
+/// builds (a pendulum's period changes by 5e-7).
+#[cfg(feature = "f64")]
 pub const POINT_MASS_INERTIA: Real = 1e-6;
+/// Relative rotary inertia given to point-mass bodies (see the module docs): `1e-3` in f32
+/// builds (a pendulum's period changes by 5e-4). The KKT pivots of a joint on a point mass span
+/// the ratio of its translational to its rotational inverse mass; with `1e-6` that ratio passes
+/// f32's redundancy tolerance (5e-5) and the factorisation reported the joint's rows as
+/// dependent on one body (`double_pendulum.inp` stopped at t = 0).
+#[cfg(not(feature = "f64"))]
+pub const POINT_MASS_INERTIA: Real = 1e-3;
 
 /// How to build the world.
 #[derive(Clone, Copy, Debug, PartialEq)]
