@@ -432,7 +432,15 @@ fn build(
     dt: f64,
     substeps: usize,
 ) -> Option<Benchmark> {
-    let mut b = scene.build(cfg, settings(method, dt, substeps)).ok()?;
+    with_method(
+        scene.build(cfg, settings(method, dt, substeps)).ok()?,
+        method,
+    )
+}
+
+/// `b` with its joints turned into penalty joints when `method` is a penalty method (`None`
+/// where that fails).
+fn with_method(mut b: Benchmark, method: Method) -> Option<Benchmark> {
     if let Method::Penalty(k) = method {
         let k = -(k as Real);
         b.set_method(ConstraintMethod::Penalty { disp: k, rot: k })
@@ -898,17 +906,9 @@ fn stability_map(cfg: &Config, progress: &mut Progress) -> Vec<Cell> {
             for &sub in &cfg.substeps {
                 progress.tick(&format!("stability {} 1:{ratio} x{sub}", method.name()));
                 let built = chain(settings(method, dt, sub), cfg.stability_links, ratio);
-                let Ok(mut b) = built else {
+                let Some(b) = built.ok().and_then(|b| with_method(b, method)) else {
                     continue;
                 };
-                if let Method::Penalty(k) = method {
-                    let k = -(k as Real);
-                    if b.set_method(ConstraintMethod::Penalty { disp: k, rot: k })
-                        .is_err()
-                    {
-                        continue;
-                    }
-                }
                 let (_, _, _, gap, status) = simulate(
                     Scene::Chain,
                     b,
@@ -964,17 +964,12 @@ fn scaling(cfg: &Config, progress: &mut Progress) -> Vec<Cost> {
             if method == Method::Multibody && n > 100 {
                 continue;
             }
-            let Ok(mut b) = chain(settings(method, 1.0 / 60.0, 4), n, 1.0) else {
+            let Some(mut b) = chain(settings(method, 1.0 / 60.0, 4), n, 1.0)
+                .ok()
+                .and_then(|b| with_method(b, method))
+            else {
                 continue;
             };
-            if let Method::Penalty(k) = method {
-                let k = -(k as Real);
-                if b.set_method(ConstraintMethod::Penalty { disp: k, rot: k })
-                    .is_err()
-                {
-                    continue;
-                }
-            }
             // Two warm-up steps (first factorisation, Rapier's set-up), then timed steps.
             if (0..2).any(|_| b.world.step().is_err()) {
                 continue;
@@ -1655,17 +1650,12 @@ fn singular_map(cfg: &Config, progress: &mut Progress) -> Vec<MapCell> {
                     "singular map {} delta {delta:.0e} 1/{rate}",
                     method.name()
                 ));
-                let Ok(mut b) = four_bar_at(settings(method, dt, 1), delta) else {
+                let Some(b) = four_bar_at(settings(method, dt, 1), delta)
+                    .ok()
+                    .and_then(|b| with_method(b, method))
+                else {
                     continue;
                 };
-                if let Method::Penalty(k) = method {
-                    let k = -(k as Real);
-                    if b.set_method(ConstraintMethod::Penalty { disp: k, rot: k })
-                        .is_err()
-                    {
-                        continue;
-                    }
-                }
                 let (_, traj, _, gap, status) = simulate(
                     Scene::A02,
                     b,
