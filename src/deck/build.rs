@@ -611,16 +611,20 @@ impl DeckModel {
                     }
                 }
             }
+            // The deck line of the body's first MASS21 element (errors about its mass name it).
+            let mass_line = |nodes: &[u32]| {
+                masses
+                    .iter()
+                    .find(|x| nodes.contains(&x.0))
+                    .map_or(0, |x| x.3)
+            };
             // In `Real` too: the f32 build overflows sooner.
             let finite = m.is_finite()
                 && (m as Real).is_finite()
                 && vec3(com).is_finite()
                 && inertia.iter().flatten().all(|x| x.is_finite());
             if !finite {
-                let line = masses
-                    .iter()
-                    .find(|x| nodes.contains(&x.0))
-                    .map_or(0, |x| x.3);
+                let line = mass_line(nodes);
                 return Err(invalid(
                     deck,
                     line,
@@ -667,10 +671,7 @@ impl DeckModel {
                 {
                     // Too light (or too small) to invert: Rapier would take it as infinitely
                     // heavy on some axis.
-                    let line = masses
-                        .iter()
-                        .find(|x| nodes.contains(&x.0))
-                        .map_or(0, |x| x.3);
+                    let line = mass_line(nodes);
                     return Err(invalid(
                         deck,
                         line,
