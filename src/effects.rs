@@ -25,6 +25,7 @@ use crate::dof::Dof;
 use crate::error::Error;
 use crate::joint::ConstraintMethod;
 use crate::math::{Real, Vector};
+pub use crate::output::{EnergyLedger, EnergyReport, FrictionState};
 use crate::rows::{FramePair, RowEval, RowKind};
 use crate::world::{Drive, Mpc184World, frame_pair};
 
@@ -65,49 +66,6 @@ pub(crate) struct EffectState {
     pub(crate) friction: Option<FrictionState>,
     /// Stops that reflected elastically in the current substep (DOF, side: +1 lower, -1 upper).
     bounced: Vec<(Dof, Real)>,
-}
-
-/// The friction state of a joint in the last substep.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
-pub struct FrictionState {
-    /// Sliding (the bound was reached) rather than sticking.
-    pub slipping: bool,
-    /// Slip rate after the friction impulse (m/s or rad/s).
-    pub slip_rate: Real,
-    /// Friction force or moment magnitude (N or N m).
-    pub force: Real,
-    /// Normal force or moment from the reactions (N or N m).
-    pub normal: Real,
-    /// The coefficient used.
-    pub mu: Real,
-}
-
-/// Energy that left or entered the system other than through kinetic, gravitational and spring
-/// energy.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
-pub struct EnergyLedger {
-    /// Dissipated by dampers, locks and plastic stops (J, >= 0).
-    pub dissipated: Real,
-    /// Work of applied joint loads (FJ) and prescribed motions (DJ) on the system (J).
-    pub work: Real,
-}
-
-/// The energy balance of a world.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
-pub struct EnergyReport {
-    /// Kinetic energy of the dynamic bodies (J).
-    pub kinetic: Real,
-    /// Gravitational potential energy (J, zero at the origin).
-    pub potential: Real,
-    /// Elastic energy of the joint springs (J).
-    pub spring: Real,
-    /// Dissipated so far (J).
-    pub dissipated: Real,
-    /// Work of applied loads and drives so far (J).
-    pub work: Real,
-    /// `kinetic + potential + spring + dissipated - work` (J; constant for an exact
-    /// integrator; `Mpc184World::energy` reports it minus its value at time 0 when asked).
-    pub total: Real,
 }
 
 /// One limit row predicted active.

@@ -5,6 +5,7 @@ pub mod catalogue;
 pub mod deck;
 pub mod divergence;
 pub mod dof;
+pub mod drive;
 #[cfg(feature = "ecs")]
 pub mod ecs;
 pub mod effects;
@@ -15,8 +16,10 @@ pub mod lagrange;
 pub mod lower;
 pub mod math;
 pub mod metrics;
+pub mod output;
 pub mod rows;
 pub mod scenes;
+pub mod settings;
 #[cfg(feature = "serde-snapshot")]
 pub mod snapshot;
 pub mod solver;

@@ -30,32 +30,7 @@ use crate::error::Error;
 use crate::joint::ConstraintMethod;
 use crate::math::rapier::dynamics::JointAxesMask;
 use crate::math::{Matrix, Rotation, Vector};
-
-/// Which joint implementation a world uses.
-#[derive(
-    Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize,
-)]
-pub enum Backend {
-    /// This crate's Lagrange-multiplier solver (penalty rows for KEYOPT(2) = 1) on Rapier's
-    /// bodies: exact constraints, exact reactions, linear time for trees, any topology.
-    #[default]
-    Lagrange,
-    /// Rapier impulse joints (fast, dissipative, any topology).
-    RapierImpulse,
-    /// Rapier multibody (reduced-coordinate) joints: exact constraints, trees only, ~N^3 cost.
-    RapierMultibody,
-}
-
-impl Backend {
-    /// The command-line name.
-    pub const fn name(self) -> &'static str {
-        match self {
-            Backend::Lagrange => "lagrange",
-            Backend::RapierImpulse => "rapier-impulse",
-            Backend::RapierMultibody => "rapier-multibody",
-        }
-    }
-}
+pub use crate::settings::Backend;
 
 /// Rapier axis index for the ANSYS frame-I axis `axis` (0 = e1, 1 = e2, 2 = e3) when the kind's
 /// principal axis `principal` goes to Rapier's X.
