@@ -193,4 +193,21 @@ impl Mpc184Joint {
     pub fn axes2(&self) -> Rotation {
         self.axes2.unwrap_or(self.axes1)
     }
+
+    /// The joint with its grounded sides placed (`ground1`, `ground2`: node I or J on the
+    /// ground): the fixed world side sits at the other node's location, so that a grounded
+    /// revolute or spherical joint turns about its body's node. A rigid link keeps both nodes
+    /// where they are given (the bar's pin on the ground).
+    pub(crate) fn grounded(mut self, ground1: bool, ground2: bool) -> Self {
+        if matches!(self.kind, JointKind::RigidLink) {
+            return self;
+        }
+        if ground1 {
+            self.node1 = self.node2;
+        }
+        if ground2 {
+            self.node2 = self.node1;
+        }
+        self
+    }
 }

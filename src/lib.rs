@@ -1,4 +1,14 @@
 #![doc = include_str!("../README.md")]
+// The layers, each importing only those above it in this list (see the README's
+// "Architecture" section):
+// 1. plain data and pure functions: math, error, dof, catalogue, behaviour, joint, kinematics,
+//    rows, settings, drive, output; the KKT solver (solver);
+// 2. body helpers (body), the joint registry (joint_set) and the insertion checks (validate);
+// 3. the joint backends (backend: lower, lagrange, rapier);
+// 4. the static analysis (statics), the divergence guard (divergence), snapshot bytes
+//    (snapshot);
+// 5. the facade (world);
+// 6. the deck reader (deck), the ECS plugin (ecs), the benchmark study (studies).
 pub mod behaviour;
 pub mod benchmarks;
 pub mod catalogue;
@@ -8,12 +18,9 @@ pub mod dof;
 pub mod drive;
 #[cfg(feature = "ecs")]
 pub mod ecs;
-pub mod effects;
 pub mod error;
 pub mod joint;
 pub mod kinematics;
-pub mod lagrange;
-pub mod lower;
 pub mod math;
 pub mod metrics;
 pub mod output;
@@ -22,14 +29,35 @@ pub mod scenes;
 pub mod settings;
 #[cfg(feature = "serde-snapshot")]
 pub mod snapshot;
+#[doc(hidden)]
 pub mod solver;
 pub mod statics;
 pub mod world;
 
+pub(crate) mod backend;
+pub(crate) mod body;
+pub(crate) mod joint_set;
+pub(crate) mod validate;
+
+pub use backend::lower;
 pub use divergence::DivergenceLimits;
 pub use error::{Error, JointId};
 pub use joint::Mpc184Joint;
 pub use world::Mpc184World;
+
+/// The Lagrange backend's public constants and diagnostics (the solver itself is internal).
+pub mod lagrange {
+    pub use crate::backend::LagrangeDiagnostics;
+    pub use crate::backend::lagrange::{
+        DEFAULT_PENALTY_DISP, DEFAULT_PENALTY_ROT, PROJECTION_TOLERANCE, penalty_stiffness,
+    };
+}
+
+/// Old home of the output types, now in [`output`].
+#[doc(hidden)]
+pub mod effects {
+    pub use crate::output::{EnergyLedger, EnergyReport, FrictionState};
+}
 
 /// The entry types.
 pub mod prelude {
@@ -37,14 +65,12 @@ pub mod prelude {
     pub use crate::catalogue::{Axis, JointKind};
     pub use crate::divergence::DivergenceLimits;
     pub use crate::dof::{Dof, DofMask};
-    pub use crate::effects::EnergyReport;
     pub use crate::error::{Error, JointId};
     pub use crate::joint::{ConstraintMethod, Mpc184Joint};
-    pub use crate::lower::Backend;
     pub use crate::math::{Real, Rotation, Vector};
+    pub use crate::output::{EnergyReport, JointOutput};
+    pub use crate::settings::{Backend, Integrator, WorldSettings};
     #[cfg(feature = "serde-snapshot")]
     pub use crate::snapshot::Snapshot;
-    pub use crate::world::{
-        DriveLevel, DriveProfile, Integrator, JointOutput, Mpc184World, WorldSettings,
-    };
+    pub use crate::world::{DriveLevel, DriveProfile, Mpc184World};
 }

@@ -174,6 +174,27 @@ pub struct FramePair {
     pub c2: Vector,
 }
 
+impl FramePair {
+    /// The frame pair of a joint whose frames are `frames` (in each body's local coordinates)
+    /// on bodies at `body1` and `body2` (pose, centre of mass).
+    pub(crate) fn at(
+        frames: &[crate::math::Pose; 2],
+        body1: (crate::math::Pose, Vector),
+        body2: (crate::math::Pose, Vector),
+    ) -> FramePair {
+        let f1 = body1.0 * frames[0];
+        let f2 = body2.0 * frames[1];
+        FramePair {
+            p1: f1.translation,
+            r1: Matrix::from_quat(f1.rotation),
+            c1: body1.1,
+            p2: f2.translation,
+            r2: Matrix::from_quat(f2.rotation),
+            c2: body2.1,
+        }
+    }
+}
+
 /// A row evaluated at one configuration: value and Jacobian blocks (linear, angular) per body.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct RowEval {

@@ -1,0 +1,276 @@
+//! Assembly: the body states from Rapier, every row's value and Jacobian at the current
+//! states, the compliances (penalty springs, the hard rows' relative regularisation), the mass
+//! blocks with the geometric-stiffness inertia, and the factorisation.
+
+use crate::catalogue::JointKind;
+use crate::error::Error;
+use crate::joint::ConstraintMethod;
+use crate::joint_set::JointSet;
+use crate::math::rapier::dynamics::{RigidBodyHandle, RigidBodySet};
+use crate::math::{Pose, Real, Vector};
+use crate::rows::{FramePair, RowKind};
+use crate::solver::kkt::JAC_ROW_STRIDE;
+
+use super::{
+    DEFAULT_PENALTY_DISP, DEFAULT_PENALTY_ROT, LagrangeState, REGULARISATION, kkt_err,
+    penalty_stiffness,
+};
+
+impl LagrangeState {
+    /// Reads pose, mass and velocity of every jointed body from Rapier.
+    pub(super) fn gather(&mut self, bodies: &RigidBodySet, g: Vector) {
+        for (i, b) in self.bodies.iter().enumerate() {
+            let rb = &bodies[*b];
+            let s = &mut self.st[i];
+            let mp = &rb.mass_properties().local_mprops;
+            s.principal = mp.principal_inertia();
+            s.principal_inv = mp.inv_principal_inertia;
+            s.principal_frame = mp.principal_inertia_local_frame;
+            s.min_inertia = s.principal.min_element();
+            s.pose = *rb.position();
+            s.refresh_inertia();
+            s.com = rb.center_of_mass();
+            s.mass = rb.mass();
+            s.linvel = rb.linvel();
+            s.angvel = rb.angvel();
+            s.force = rb.user_force() + g * (rb.mass() * rb.gravity_scale());
+            // The gyroscopic torque is added in the velocity solve (implicit midpoint).
+            s.torque = rb.user_torque();
+        }
+    }
+
+    /// The factorisation of the last substep still holds for a step of `h`: same `h`, no
+    /// kinematic body, and every body exactly as it was written back (the user may have moved
+    /// bodies or changed velocities between steps). Call after [`LagrangeState::gather`].
+    pub(super) fn factor_holds(&self, h: Real) -> bool {
+        !self.has_kinematic
+            && self.factor_valid == Some(h)
+            && self
+                .st
+                .iter()
+                .zip(&self.written)
+                .all(|(s, w)| s.pose == w.0 && s.linvel == w.1 && s.angvel == w.2)
+    }
+
+    /// Kinetic energy of the solver's bodies plus the potential of their constant forces
+    /// (gravity and user forces: `-f . c`), at the current body states (J).
+    pub(super) fn body_energy(&self) -> Real {
+        self.st
+            .iter()
+            .map(|s| {
+                0.5 * s.mass * s.linvel.length_squared() + 0.5 * s.angvel.dot(s.inertia * s.angvel)
+                    - s.force.dot(s.com)
+            })
+            .sum()
+    }
+
+    /// Evaluates every row at the bodies' current state (`st`); with `jacobian`, also fills the
+    /// Jacobian arena, the compliances and the kinematic terms.
+    pub(super) fn rows(
+        &mut self,
+        joints: &JointSet,
+        bodies: &RigidBodySet,
+        h: Real,
+        jacobian: bool,
+    ) {
+        let Some(kkt) = self.kkt.as_ref() else { return };
+        for (k, &j) in self.blocks.iter().enumerate() {
+            let Some(e) = joints.get(j) else { continue };
+            let slots = kkt.joint_specs()[k].bodies;
+            let st = &self.st;
+            let side = |b: RigidBodyHandle, slot: Option<usize>| -> (Pose, Vector, Option<usize>) {
+                match slot {
+                    Some(i) => (st[i].pose, st[i].com, Some(i)),
+                    None => {
+                        let rb = &bodies[b];
+                        (*rb.position(), rb.center_of_mass(), None)
+                    }
+                }
+            };
+            let (p1, c1, i1) = side(e.body1, slots[0]);
+            let (p2, c2, i2) = side(e.body2, slots[1]);
+            let f = FramePair::at(&e.low, (p1, c1), (p2, c2));
+            let (kd, kr) = match e.joint.method {
+                ConstraintMethod::Lagrange => (None, None),
+                ConstraintMethod::Penalty { disp, rot } => (
+                    Some(penalty_stiffness(disp, DEFAULT_PENALTY_DISP)),
+                    Some(penalty_stiffness(rot, DEFAULT_PENALTY_ROT)),
+                ),
+            };
+            let r0 = kkt.row_offset(k);
+            for (n, row) in e.state.rows.iter().enumerate() {
+                let r = r0 + n;
+                let ev = row.eval(&f);
+                self.value[r] = ev.value;
+                if !jacobian {
+                    continue;
+                }
+                let out = &mut self.jac[JAC_ROW_STRIDE * r..JAC_ROW_STRIDE * (r + 1)];
+                for a in 0..3 {
+                    out[a] = ev.j1[0][a];
+                    out[3 + a] = ev.j1[1][a];
+                    out[6 + a] = ev.j2[0][a];
+                    out[9 + a] = ev.j2[1][a];
+                }
+                // Velocity of a non-dynamic side (kinematic bodies; zero for fixed ones).
+                let mut kin = 0.0;
+                for (slot, b, jb) in [(i1, e.body1, ev.j1), (i2, e.body2, ev.j2)] {
+                    if slot.is_none() {
+                        let rb = &bodies[b];
+                        kin += jb[0].dot(rb.linvel()) + jb[1].dot(rb.angvel());
+                    }
+                }
+                self.kin[r] = kin;
+                let k_pen = match row {
+                    RowKind::Linear { .. } | RowKind::Screw { .. } | RowKind::Distance { .. } => kd,
+                    RowKind::Drive { .. } => None,
+                    RowKind::Angular { .. } => kr,
+                };
+                self.penalty[r] = k_pen.is_some();
+                self.kpen[r] = k_pen.unwrap_or(0.0);
+                self.compliance[r] = match k_pen {
+                    Some(k) => 1.0 / (k * h * h),
+                    // A relative regularisation of the hard rows (`REGULARISATION` times the
+                    // row's own effective inverse mass): it bounds the multipliers in directions
+                    // that become dependent at a singular pose (a parallelogram four-bar passing
+                    // its aligned position) and changes the solution of a well-posed system by
+                    // that relative amount only.
+                    None => {
+                        let mut a = 0.0;
+                        for (slot, jb) in [(i1, ev.j1), (i2, ev.j2)] {
+                            if let Some(i) = slot {
+                                let s = &self.st[i];
+                                a += jb[0].length_squared() / s.mass
+                                    + jb[1].dot(s.inertia_inv * jb[1]);
+                            }
+                        }
+                        REGULARISATION * self.reg_scale * a
+                    }
+                };
+            }
+        }
+    }
+
+    /// Mass blocks (with added inertia from the last substep's joint forces) and factorisation.
+    pub(super) fn factor(
+        &mut self,
+        joints: &JointSet,
+        bodies: &RigidBodySet,
+        h: Real,
+        time: Real,
+    ) -> Result<(), Error> {
+        self.added_inertia(joints, bodies, h);
+        for (i, s) in self.st.iter().enumerate() {
+            let m = &mut self.mass[i];
+            *m = [0.0; 36];
+            for a in 0..3 {
+                m[6 * a + a] = s.mass;
+                for b in 0..3 {
+                    m[6 * (3 + a) + 3 + b] = s.inertia.col(b)[a];
+                }
+                m[6 * (3 + a) + 3 + a] += s.added;
+            }
+        }
+        let Some(kkt) = self.kkt.as_mut() else {
+            return Ok(());
+        };
+        let report = kkt
+            .factor(&self.mass, &self.jac, &self.compliance)
+            .map_err(|e| kkt_err(e, time))?;
+        // The topology check (unregularised) found the structural redundancy; a regularised
+        // factorisation only sees rows that are dependent numerically as well.
+        self.diagnostics.redundant_rows = report.redundant_rows.max(self.redundant_count);
+        if report.redundant_rows > 0 && !self.warned_redundant {
+            self.warned_redundant = true;
+            self.diagnostics.warnings.push(format!(
+                "t = {time}: {} redundant constraint row(s): the constraint Jacobian is rank \
+                 deficient, the multipliers of the dependent rows are not unique (the solve \
+                 regularises them; the motion is unaffected)",
+                report.redundant_rows
+            ));
+        }
+        Ok(())
+    }
+
+    /// Geometric stiffness as added rotational inertia (see the module docs): each joint's
+    /// force of the last substep, `F` on body 2 and `-F` on body 1, acts at frame 2's origin `p`;
+    /// a body turning about its centre `c` against it has the stiffness `|F| |p - c|`.
+    fn added_inertia(&mut self, joints: &JointSet, bodies: &RigidBodySet, h: Real) {
+        let Some(kkt) = self.kkt.as_ref() else { return };
+        // Per body: the summed stiffness |F| r of its joints and the longest lever arm r.
+        let mut load: Vec<(Real, Real)> = vec![(0.0, 0.0); self.st.len()];
+        for (k, &j) in self.blocks.iter().enumerate() {
+            let Some(e) = joints.get(j) else { continue };
+            let r0 = kkt.row_offset(k);
+            let mut force = Vector::ZERO;
+            for r in r0..r0 + e.state.rows.len() {
+                let jr = &self.jac[JAC_ROW_STRIDE * r..JAC_ROW_STRIDE * (r + 1)];
+                force += Vector::new(jr[6], jr[7], jr[8]) * (self.impulse[r] / h);
+            }
+            let force = force.length();
+            let slots = kkt.joint_specs()[k].bodies;
+            let p = match slots[1] {
+                Some(i) => (self.st[i].pose * e.low[1]).translation,
+                None => (*bodies[e.body2].position() * e.low[1]).translation,
+            };
+            // A rigid link's force acts on body 1 at node I, the other end of the bar.
+            let link = matches!(e.joint.kind, JointKind::RigidLink);
+            for (side, i) in slots.into_iter().enumerate() {
+                let Some(i) = i else { continue };
+                let at = if link && side == 0 {
+                    (self.st[i].pose * e.low[0]).translation
+                } else {
+                    p
+                };
+                let r = (at - self.st[i].com).length();
+                load[i].0 += force * r;
+                load[i].1 = load[i].1.max(r);
+            }
+        }
+        let mut stiffened = 0;
+        // Second order on a redundant structure: no added inertia. The multipliers of dependent
+        // rows are set by the regularisation, not by the physics, and grow without bound where
+        // the rows become nearly dependent (a parallelogram four-bar passing its singular pose),
+        // so the force estimate is meaningless there; the added inertia it switched on cost
+        // RATTLE 1e-3 of the four-bar's energy per passage at h = 1/240 s. (The first-order
+        // scheme keeps it: its velocities live at half steps and it never tripped there.)
+        let skip = self.second_any && self.redundant;
+        for (s, (kg, r)) in self.st.iter_mut().zip(load) {
+            if skip {
+                s.added = 0.0;
+                continue;
+            }
+            let omega2 = kg / (s.min_inertia + s.mass * r * r);
+            s.added = if omega2 * h * h > 0.25 {
+                stiffened += 1;
+                h * h * kg
+            } else {
+                0.0
+            };
+        }
+        self.diagnostics.stiffened_bodies = stiffened;
+    }
+
+    /// Counts the redundant hard rows once per topology: one factorisation without the
+    /// regularisation (which otherwise keeps every pivot away from zero) and a warning.
+    pub(super) fn redundancy_check(
+        &mut self,
+        joints: &JointSet,
+        bodies: &RigidBodySet,
+        h: Real,
+        time: Real,
+    ) -> Result<(), Error> {
+        let saved = self.compliance.clone();
+        for (c, &k) in self.compliance.iter_mut().zip(&self.kpen) {
+            if k == 0.0 {
+                *c = 0.0;
+            }
+        }
+        self.redundant_count = 0;
+        let result = self.factor(joints, bodies, h, time);
+        self.compliance = saved;
+        self.redundant_count = self.diagnostics.redundant_rows;
+        self.redundant = self.diagnostics.redundant_rows > 0;
+        result
+    }
+}

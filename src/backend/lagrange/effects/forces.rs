@@ -1,0 +1,100 @@
+//! Springs, dampers (linear 6x6 and tabulated, `TB,JOIN`) and applied loads (`FJ`) as
+//! generalised forces on the free DOFs, half an impulse at a time.
+
+use crate::behaviour::dof_rows;
+use crate::dof::Dof;
+use crate::math::{Real, Vector};
+
+use super::super::super::Sets;
+use super::super::LagrangeState;
+use super::{Effects, frames, row_rate};
+
+impl Effects {
+    /// Half a kick of the springs, dampers and loads: adds `(h/2) J^T f` to the momentum
+    /// buffer `rhs_b` (dynamic bodies by slot) and books the dampers' and loads' work.
+    pub(crate) fn kick(&mut self, ls: &mut LagrangeState, sets: &mut Sets, half: Real, time: Real) {
+        for j in 0..sets.joints.len() {
+            let Some(e) = sets.joints.get(j) else {
+                continue;
+            };
+            let b = &e.joint.behaviour;
+            if !b.has_forces() && e.loads.is_empty() {
+                continue;
+            }
+            let (f, slots, vel) = frames(ls, &sets.physics.bodies, e);
+            let free = e.joint.kind.free();
+            let o = &e.state.output;
+            let reference = [o.measure[3], o.measure[5]];
+            let (m, rows) = dof_rows(&f, reference);
+            let rate: [Real; 6] = core::array::from_fn(|k| row_rate(&rows[k], vel[0], vel[1]));
+            let x: [Real; 6] =
+                core::array::from_fn(|k| m[k] - b.reference[k].unwrap_or(e.initial[k]));
+            let mut spring = [0.0; 6];
+            let mut damper = [0.0; 6];
+            let mut energy = 0.0;
+            if let Some(kmat) = &b.stiffness {
+                let kx = kmat.apply(&x, free);
+                for k in 0..6 {
+                    spring[k] -= kx[k];
+                    energy += 0.5 * x[k] * kx[k];
+                }
+            }
+            if let Some(cmat) = &b.damping {
+                let cv = cmat.apply(&rate, free);
+                for k in 0..6 {
+                    damper[k] -= cv[k];
+                }
+            }
+            for k in 0..6 {
+                if !free.contains(Dof::ALL[k]) {
+                    continue;
+                }
+                if let Some(t) = &b.stiffness_tables[k] {
+                    spring[k] -= t.eval(x[k]).0;
+                    energy += t.integral(x[k]);
+                }
+                if let Some(t) = &b.damping_tables[k] {
+                    damper[k] -= t.eval(rate[k]).0;
+                }
+            }
+            let mut load = [0.0; 6];
+            for d in &e.loads {
+                load[d.dof.index()] += d.profile.value(time);
+            }
+            let total: [Real; 6] = core::array::from_fn(|k| spring[k] + damper[k] + load[k]);
+            let mut work = 0.0;
+            let mut dissipated = 0.0;
+            for k in 0..6 {
+                dissipated -= damper[k] * rate[k] * half;
+                // A locked DOF does not move: the load's kick there is taken straight back by
+                // the lock (neither booked).
+                if e.state.locked[k].is_none() {
+                    work += load[k] * rate[k] * half;
+                }
+            }
+            let (mut f2, mut t2) = (Vector::ZERO, Vector::ZERO);
+            for (k, row) in rows.iter().enumerate() {
+                if total[k] == 0.0 {
+                    continue;
+                }
+                f2 += row.j2[0] * total[k];
+                t2 += row.j2[1] * total[k];
+                for (slot, jb) in [(slots[0], row.j1), (slots[1], row.j2)] {
+                    if let Some(i) = slot {
+                        let p = &mut ls.rhs_b[i];
+                        for a in 0..3 {
+                            p[a] += jb[0][a] * total[k] * half;
+                            p[3 + a] += jb[1][a] * total[k] * half;
+                        }
+                    }
+                }
+            }
+            sets.ledger.dissipated += dissipated;
+            sets.ledger.work += work;
+            let s = &mut self.scratch[j];
+            s.force = total;
+            s.spring_energy = energy;
+            s.on_body2 = (f2, t2);
+        }
+    }
+}

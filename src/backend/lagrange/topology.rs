@@ -1,0 +1,239 @@
+//! The solver's structure: which bodies and rows take part (sleeping islands leave), the KKT
+//! block layout, and which integrator each island takes this step.
+
+use std::collections::HashMap;
+
+use crate::error::Error;
+use crate::joint_set::{JointSet, RapierJoint};
+use crate::math::rapier::dynamics::{JointAxesMask, RigidBodyHandle, RigidBodySet};
+use crate::math::{Pose, Vector};
+use crate::settings::{Backend, Integrator};
+use crate::solver::kkt::{JAC_ROW_STRIDE, JointBlockSpec, KktSolver};
+
+use super::super::{Sets, lower};
+use super::{BodyState, LagrangeState};
+
+impl LagrangeState {
+    /// The structure is stale: invalidated, the joints' rows changed, an island fell asleep or
+    /// woke, or colliders were added or removed.
+    pub(super) fn needs_rebuild(&self, sets: &Sets) -> bool {
+        self.dirty
+            || self.kkt.is_none()
+            || self.topology != sets.joints.topology()
+            || asleep(sets.joints, &sets.physics.bodies) != self.asleep
+            || self.colliders != sets.physics.colliders.len()
+    }
+
+    /// Rebuilds the body index and the KKT structure after joints (or colliders) were added or
+    /// removed.
+    pub(super) fn topology(&mut self, sets: &mut Sets) -> Result<(), Error> {
+        contact_rows_in_rapier(sets);
+        let physics = &*sets.physics;
+        self.colliders = physics.colliders.len();
+        let mut bodies = Vec::new();
+        let mut index = HashMap::new();
+        let mut specs = Vec::new();
+        let mut blocks = Vec::new();
+        let asleep = asleep(sets.joints, &physics.bodies);
+        for (j, e) in sets.joints.slots().iter().enumerate() {
+            let Some(e) = e else { continue };
+            // A joint whose island sleeps costs nothing: no rows, no bodies (Rapier keeps the
+            // island asleep; it wakes as a whole, and the next step rebuilds with it).
+            if asleep.get(j).copied().unwrap_or(false) {
+                continue;
+            }
+            let mut slot = |b: RigidBodyHandle| -> Option<usize> {
+                if !physics.bodies[b].is_dynamic() {
+                    return None;
+                }
+                Some(*index.entry(b).or_insert_with(|| {
+                    bodies.push(b);
+                    bodies.len() - 1
+                }))
+            };
+            let s = [slot(e.body1), slot(e.body2)];
+            if e.state.rows.is_empty() {
+                continue;
+            }
+            specs.push(JointBlockSpec {
+                rows: e.state.rows.len(),
+                bodies: s,
+            });
+            blocks.push(j);
+        }
+        let has_kinematic = sets.joints.iter().any(|e| {
+            physics.bodies[e.body1].is_kinematic() || physics.bodies[e.body2].is_kinematic()
+        });
+        let kkt = KktSolver::new(bodies.len(), &specs).map_err(|e| Error::Unsupported {
+            what: format!("the constraint structure: {e}"),
+            hint: "a joint carries at most 12 rows".into(),
+        })?;
+        self.size_buffers(bodies.len(), kkt.num_rows());
+        self.has_kinematic = has_kinematic;
+        self.bodies = bodies;
+        self.index = index;
+        self.block_of = vec![None; sets.joints.len()];
+        for (k, &j) in blocks.iter().enumerate() {
+            self.block_of[j] = Some(k);
+        }
+        self.blocks = blocks;
+        self.asleep = asleep;
+        self.shape = Some((
+            kkt.num_bodies(),
+            specs.iter().map(|s| (s.rows, s.bodies)).collect(),
+        ));
+        self.kkt = Some(kkt);
+        self.dirty = false;
+        self.topology = sets.joints.topology();
+        Ok(())
+    }
+
+    /// Sizes (and clears) every per-body and per-row buffer.
+    fn size_buffers(&mut self, nb: usize, nr: usize) {
+        self.st = vec![BodyState::default(); nb];
+        self.mass = vec![[0.0; 36]; nb];
+        self.rhs_b = vec![[0.0; 6]; nb];
+        self.shift = vec![[0.0; 6]; nb];
+        self.saved = vec![(0.0, Vector::ZERO, Vector::ZERO); nb];
+        self.jac = vec![0.0; JAC_ROW_STRIDE * nr];
+        self.compliance = vec![0.0; nr];
+        self.value = vec![0.0; nr];
+        self.kin = vec![0.0; nr];
+        self.penalty = vec![false; nr];
+        self.kpen = vec![0.0; nr];
+        self.rate = vec![0.0; nr];
+        self.reg_scale = 1.0;
+        self.backup = vec![BodyState::default(); nb];
+        self.last_x = vec![[0.0; 6]; nb];
+        self.last_lambda = vec![0.0; nr];
+        self.mu = vec![0.0; nr];
+        self.fresh_values = false;
+        self.factor_valid = None;
+        self.written = vec![(Pose::IDENTITY, Vector::ZERO, Vector::ZERO); nb];
+        self.rhs_j = vec![0.0; nr];
+        self.impulse = vec![0.0; nr];
+    }
+
+    /// Picks the integrator of each body for this step: the world's, except that an island
+    /// (bodies connected by joints) with an active contact takes the first-order step.
+    pub(super) fn choose_order(&mut self, sets: &Sets) {
+        let nb = self.bodies.len();
+        let rattle = sets.integrator == Integrator::Rattle;
+        self.second.clear();
+        self.second.resize(nb, rattle);
+        self.second_any = rattle && nb > 0;
+        self.diagnostics.first_order_bodies = 0;
+        if !rattle {
+            return;
+        }
+        let touched = self.bodies_in_contact(sets);
+        if touched.is_empty() {
+            return;
+        }
+        // Islands by union-find over the joint blocks.
+        let mut parent: Vec<usize> = (0..nb).collect();
+        fn root(p: &mut [usize], mut i: usize) -> usize {
+            while p[i] != i {
+                p[i] = p[p[i]];
+                i = p[i];
+            }
+            i
+        }
+        if let Some(kkt) = self.kkt.as_ref() {
+            for spec in kkt.joint_specs() {
+                if let [Some(a), Some(b)] = spec.bodies {
+                    let (ra, rb) = (root(&mut parent, a), root(&mut parent, b));
+                    parent[ra] = rb;
+                }
+            }
+        }
+        let mut contact_root = vec![false; nb];
+        for i in touched {
+            let r = root(&mut parent, i);
+            contact_root[r] = true;
+        }
+        let mut fallback = 0;
+        for i in 0..nb {
+            if contact_root[root(&mut parent, i)] {
+                self.second[i] = false;
+                fallback += 1;
+            }
+        }
+        self.second_any = self.second.iter().any(|x| *x);
+        self.diagnostics.first_order_bodies = fallback;
+        self.diagnostics.first_order_steps += 1;
+        if !self.warned_fallback {
+            self.warned_fallback = true;
+            self.diagnostics.warnings.push(format!(
+                "t = {}: {fallback} bod(ies) in islands with an active contact take the \
+                 first-order step while the contact lasts (second order needs smooth forces)",
+                sets.time
+            ));
+        }
+    }
+
+    /// The solver's bodies with an active contact (their slots).
+    fn bodies_in_contact(&self, sets: &Sets) -> Vec<usize> {
+        let mut touched = Vec::new();
+        for pair in sets.physics.contact_pairs() {
+            if !pair.has_any_active_contact() {
+                continue;
+            }
+            for c in [pair.collider1, pair.collider2] {
+                if let Some(&i) = sets
+                    .physics
+                    .colliders
+                    .get(c)
+                    .and_then(|col| col.parent())
+                    .and_then(|b| self.index.get(&b))
+                {
+                    touched.push(i);
+                }
+            }
+        }
+        touched
+    }
+}
+
+/// Per joint: every dynamic body it connects is asleep in Rapier (and it has at least one).
+pub(super) fn asleep(joints: &JointSet, bodies: &RigidBodySet) -> Vec<bool> {
+    joints
+        .slots()
+        .iter()
+        .map(|e| {
+            e.as_ref().is_some_and(|e| {
+                let dynamic: Vec<_> = [e.body1, e.body2]
+                    .into_iter()
+                    .filter(|b| bodies[*b].is_dynamic())
+                    .collect();
+                !dynamic.is_empty() && dynamic.iter().all(|b| bodies[*b].is_sleeping())
+            })
+        })
+        .collect()
+}
+
+/// Rapier's own copy of a joint's rows rides along only where a contact can act (either body
+/// has a collider): they do no work on the velocities the solve already made consistent, but
+/// keep contact and joint consistent inside Rapier's solver (otherwise the two alternate
+/// between our solve and Rapier's and a body resting on a floor creeps). Elsewhere the Rapier
+/// joint locks nothing: it would cost a Rapier joint solve for nothing.
+fn contact_rows_in_rapier(sets: &mut Sets) {
+    let physics = &mut *sets.physics;
+    for e in sets.joints.iter() {
+        let RapierJoint::Impulse(handle) = e.rapier else {
+            continue;
+        };
+        let touches = [e.body1, e.body2]
+            .iter()
+            .any(|b| !physics.bodies[*b].colliders().is_empty());
+        let mask = match lower::lower(&e.joint.kind, e.joint.method, Backend::RapierImpulse) {
+            Ok(m) if touches => m,
+            _ => JointAxesMask::empty(),
+        };
+        if let Some(j) = physics.impulse_joints.get_mut(handle, false)
+            && j.data.locked_axes != mask
+        {
+            j.data.lock_axes(mask);
+        }
+    }
+}

@@ -1,0 +1,310 @@
+//! Joint backends: who imposes the joints, behind one dispatch.
+//!
+//! | [`Backend`] | module | joints are | reactions from | behaviour (stops, locks, springs, drives, loads) |
+//! |---|---|---|---|---|
+//! | `Lagrange` (default) | [`lagrange`] | this crate's rows, solved with Lagrange multipliers (penalty rows for KEYOPT(2) = 1) around one Rapier call per substep | the multipliers | all, exact |
+//! | `RapierImpulse` | [`rapier`] | Rapier impulse joints ([`lower`]) | momentum balance over the last substep | friction on a single-DOF joint (force-capped motor) |
+//! | `RapierMultibody` | [`rapier`] | Rapier multibody joints (trees) | the same | the same |
+//!
+//! [`JointBackend`] is the only place that matches on [`Backend`]: it admits a joint (what the
+//! backend can impose), attaches it (the Rapier joint that links its bodies), steps the world,
+//! writes the reactions, and saves and restores its own state for the divergence checkpoint.
+//! Each backend borrows the sets it works on ([`Sets`]: Rapier's physics, the joints, the
+//! energy ledger) for the length of a call; it names no world type.
+//!
+//! A new backend is one variant here, one module beside [`lagrange`] and [`rapier`], and one
+//! arm in each `match` below.
+
+pub(crate) mod lagrange;
+pub mod lower;
+pub(crate) mod rapier;
+
+use crate::error::{Error, JointId};
+use crate::joint::Mpc184Joint;
+use crate::joint_set::{JointEntry, JointFrames, JointSet, RapierJoint};
+use crate::math::rapier::dynamics::{GenericJointBuilder, RigidBodyHandle};
+use crate::math::rapier::pipeline::PhysicsWorld;
+use crate::math::{Real, Vector};
+use crate::output::EnergyLedger;
+use crate::settings::{Backend, Integrator};
+
+pub use lagrange::LagrangeDiagnostics;
+
+/// What a backend works on during a call: Rapier's physics, the joints and the energy ledger,
+/// borrowed from the world.
+pub(crate) struct Sets<'a> {
+    pub(crate) physics: &'a mut PhysicsWorld,
+    pub(crate) joints: &'a mut JointSet,
+    pub(crate) ledger: &'a mut EnergyLedger,
+    /// Simulated time at the start of the step (s).
+    pub(crate) time: Real,
+    /// The integrator asked for (the Lagrange backend's).
+    pub(crate) integrator: Integrator,
+}
+
+/// What only some backends do.
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum Capability {
+    /// Stops, locks, springs and dampers (`SECSTOP`, `SECLOCK`, `TB,JOIN`).
+    Behaviour,
+    /// Prescribed relative motion (`DJ`).
+    Drive,
+    /// Applied joint loads (`FJ`).
+    Load,
+    /// The static position analysis (`ANTYPE,STATIC`).
+    Static,
+}
+
+impl Capability {
+    /// What is refused, and what to do instead.
+    fn refusal(self) -> (&'static str, &'static str) {
+        match self {
+            Capability::Behaviour => (
+                "stops, locks, springs and dampers (SECSTOP, SECLOCK, TB,JOIN)",
+                "they run on the Lagrange backend (Backend::Lagrange, the default), with either \
+                 constraint method; Rapier's own limits are perfectly plastic and its motors see \
+                 only the body's own inertia (on the Rapier backends only friction on a \
+                 revolute, slot or translational joint is approximated, by a force-capped \
+                 velocity motor)",
+            ),
+            Capability::Drive => (
+                "a prescribed relative motion (DJ)",
+                "drives are rows of the Lagrange backend",
+            ),
+            Capability::Load => (
+                "an applied joint load (FJ)",
+                "joint loads act on the Lagrange backend",
+            ),
+            Capability::Static => (
+                "a static (position) analysis",
+                "the positions are solved on the joints' own rows: use the Lagrange backend",
+            ),
+        }
+    }
+}
+
+/// The joint solver of a world (see the module docs).
+#[cfg_attr(
+    feature = "serde-snapshot",
+    derive(serde::Serialize, serde::Deserialize)
+)]
+pub(crate) enum JointBackend {
+    Lagrange(Box<lagrange::LagrangeBackend>),
+    Rapier(Box<rapier::RapierBackend>),
+}
+
+/// A backend's own part of the divergence checkpoint.
+#[derive(Default)]
+pub(crate) struct BackendSave {
+    rapier: Option<rapier::RapierSave>,
+}
+
+/// A joint attached to the backend: its two bodies (grounded sides resolved), frames and the
+/// Rapier joint that links them.
+pub(crate) struct Attached {
+    pub(crate) sides: [RigidBodyHandle; 2],
+    pub(crate) frames: JointFrames,
+    pub(crate) rapier: RapierJoint,
+}
+
+static NO_DIAGNOSTICS: LagrangeDiagnostics = LagrangeDiagnostics::EMPTY;
+
+impl JointBackend {
+    /// The backend for the setting `kind`.
+    pub(crate) fn new(kind: Backend) -> JointBackend {
+        match kind {
+            Backend::Lagrange => JointBackend::Lagrange(Box::default()),
+            Backend::RapierImpulse => {
+                JointBackend::Rapier(Box::new(rapier::RapierBackend::new(false)))
+            }
+            Backend::RapierMultibody => {
+                JointBackend::Rapier(Box::new(rapier::RapierBackend::new(true)))
+            }
+        }
+    }
+
+    /// The setting this backend implements.
+    pub(crate) fn kind(&self) -> Backend {
+        match self {
+            JointBackend::Lagrange(_) => Backend::Lagrange,
+            JointBackend::Rapier(r) if r.multibody() => Backend::RapierMultibody,
+            JointBackend::Rapier(_) => Backend::RapierImpulse,
+        }
+    }
+
+    /// `Ok` if the backend does `what`, else [`Error::Unsupported`] saying which backend does.
+    pub(crate) fn require(&self, what: Capability) -> Result<(), Error> {
+        match self {
+            JointBackend::Lagrange(_) => Ok(()),
+            JointBackend::Rapier(_) => {
+                let (what, hint) = what.refusal();
+                Err(Error::Unsupported {
+                    what: format!("{what} on the {} backend", self.kind().name()),
+                    hint: hint.into(),
+                })
+            }
+        }
+    }
+
+    /// Checks that the backend can impose the joint's behaviour: every behaviour on the
+    /// Lagrange backend; on the Rapier backends only friction on a single-DOF joint.
+    pub(crate) fn admit(&self, joint: &Mpc184Joint) -> Result<(), Error> {
+        if joint.behaviour.is_empty() || rapier::friction::approximates(joint) {
+            return Ok(());
+        }
+        self.require(Capability::Behaviour)
+    }
+
+    /// Lowers the joint (the Rapier joint's locked axes), resolves grounded sides (`None`) to
+    /// fixed bodies, computes the frames and inserts the Rapier joint.
+    pub(crate) fn attach(
+        &mut self,
+        id: JointId,
+        physics: &mut PhysicsWorld,
+        ground: &mut Option<RigidBodyHandle>,
+        joint: &Mpc184Joint,
+        sides: [Option<RigidBodyHandle>; 2],
+    ) -> Result<Attached, Error> {
+        let mask = lower::lower(&joint.kind, joint.method, self.kind())?;
+        let sides = match self {
+            JointBackend::Rapier(r) => r.resolve_sides(id, physics, ground, sides)?,
+            JointBackend::Lagrange(_) => {
+                sides.map(|b| b.unwrap_or_else(|| shared_ground(physics, ground)))
+            }
+        };
+        let pose = |h: RigidBodyHandle| *physics.bodies[h].position();
+        let frames = JointFrames::new(joint, pose(sides[0]), pose(sides[1]));
+        let q = lower::principal_rotation(joint.kind.principal_axis());
+        let generic = GenericJointBuilder::new(mask)
+            .local_frame1(frames.rapier[0] * q)
+            .local_frame2(frames.rapier[1] * q)
+            .contacts_enabled(false)
+            .build();
+        let rapier = match self {
+            JointBackend::Rapier(r) => r.insert(id, physics, sides, generic)?,
+            // The Lagrange backend's Rapier joint has no locked axis: it only puts the two
+            // bodies in one island (they sleep and wake together) and stops them colliding.
+            JointBackend::Lagrange(_) => RapierJoint::Impulse(
+                physics
+                    .impulse_joints
+                    .insert(sides[0], sides[1], generic, true),
+            ),
+        };
+        Ok(Attached {
+            sides,
+            frames,
+            rapier,
+        })
+    }
+
+    /// Removes the Rapier joint of a joint being removed.
+    pub(crate) fn detach(&mut self, physics: &mut PhysicsWorld, entry: &JointEntry) {
+        match entry.rapier {
+            RapierJoint::Impulse(h) => {
+                physics.impulse_joints.remove(h, true);
+            }
+            RapierJoint::Multibody(h) => {
+                physics.multibody_joints.remove(h, true);
+            }
+        }
+    }
+
+    /// Advances the world by `n` substeps of `h`.
+    pub(crate) fn step(&mut self, sets: &mut Sets, h: Real, n: usize) -> Result<(), Error> {
+        sets.physics.integration_parameters.dt = h;
+        sets.physics.integration_parameters.num_solver_iterations = 1;
+        match self {
+            JointBackend::Lagrange(l) => l.step(sets, h, n),
+            JointBackend::Rapier(r) => {
+                r.step(sets, n);
+                Ok(())
+            }
+        }
+    }
+
+    /// Writes every joint's reaction (and element forces) of the last substep `h` into its
+    /// output.
+    pub(crate) fn write_reactions(&mut self, sets: &mut Sets, h: Real) {
+        match self {
+            JointBackend::Lagrange(l) => l.write_reactions(sets, h),
+            JointBackend::Rapier(r) => r.write_reactions(sets, h),
+        }
+    }
+
+    /// Linear and angular velocity of a body's centre of mass (world frame).
+    pub(crate) fn body_velocity(
+        &self,
+        physics: &PhysicsWorld,
+        h: RigidBodyHandle,
+    ) -> (Vector, Vector) {
+        match self {
+            JointBackend::Rapier(r) if r.multibody() => r.body_velocity(physics, h),
+            JointBackend::Lagrange(_) | JointBackend::Rapier(_) => {
+                let rb = &physics.bodies[h];
+                (rb.linvel(), rb.angvel())
+            }
+        }
+    }
+
+    /// The Lagrange backend's diagnostics (empty on the others).
+    pub(crate) fn diagnostics(&self) -> &LagrangeDiagnostics {
+        match self {
+            JointBackend::Lagrange(l) => l.diagnostics(),
+            JointBackend::Rapier(_) => &NO_DIAGNOSTICS,
+        }
+    }
+
+    /// Drops what the backend derived from the world's state (after a roll-back or a static
+    /// step moved the bodies): it is rebuilt at the next step.
+    pub(crate) fn invalidate(&mut self) {
+        match self {
+            JointBackend::Lagrange(l) => l.invalidate(),
+            JointBackend::Rapier(_) => {}
+        }
+    }
+
+    /// Saves the backend's state that a step changes (the divergence checkpoint).
+    pub(crate) fn save(&self, physics: &PhysicsWorld, out: &mut BackendSave) {
+        out.rapier = match self {
+            JointBackend::Rapier(r) => Some(r.save(physics)),
+            JointBackend::Lagrange(_) => None,
+        };
+    }
+
+    /// Puts back what [`JointBackend::save`] saved, and invalidates the rest.
+    pub(crate) fn restore(&mut self, physics: &mut PhysicsWorld, saved: &mut BackendSave) {
+        if let (JointBackend::Rapier(r), Some(s)) = (&mut *self, saved.rapier.take()) {
+            r.restore(physics, s);
+        }
+        self.invalidate();
+    }
+
+    /// The backend's own copy of a body's state (if it keeps one) is finite.
+    pub(crate) fn body_finite(&self, h: RigidBodyHandle) -> bool {
+        match self {
+            JointBackend::Lagrange(l) => l.body_finite(h),
+            JointBackend::Rapier(_) => true,
+        }
+    }
+
+    /// Rebuilds what a snapshot leaves out (see [`crate::snapshot`]).
+    #[cfg(feature = "serde-snapshot")]
+    pub(crate) fn after_restore(&mut self) -> Result<(), Error> {
+        match self {
+            JointBackend::Lagrange(l) => l.after_restore(),
+            JointBackend::Rapier(_) => Ok(()),
+        }
+    }
+}
+
+/// The world's one fixed ground body (created on first use).
+pub(crate) fn shared_ground(
+    physics: &mut PhysicsWorld,
+    ground: &mut Option<RigidBodyHandle>,
+) -> RigidBodyHandle {
+    *ground.get_or_insert_with(|| {
+        physics
+            .bodies
+            .insert(crate::math::rapier::dynamics::RigidBodyBuilder::fixed())
+    })
+}

@@ -1,0 +1,323 @@
+//! The Rapier backends: Rapier's own impulse joints (`RapierImpulse`) or multibody joints
+//! (`RapierMultibody`), lowered by [`super::lower`].
+//!
+//! `step` drives Rapier with one substep per call (`num_solver_iterations = 1`, `dt = h`), so
+//! that per-substep forces can be added around each call: the gyroscopic torque `-w x Iw` on
+//! the impulse backend (Rapier's own is off on jointed bodies, see [`crate::body::join`]), and
+//! friction as a force-capped motor ([`friction`]).
+//!
+//! Reactions are recovered from momentum balance over the last substep ([`reactions`]): the
+//! constraint impulse on each body `p_b = M_b dv_b - h f_b` (gravity, user forces, the
+//! gyroscopic torque) is split among the joints by the mass-weighted least-squares solve
+//! `(J M^-1 J^T) mu = J M^-1 p`, with `J` the joints' own rows ([`crate::rows`]). This sidesteps
+//! Rapier's `ImpulseJoint::impulses`, which are coefficients in a Gram-Schmidt-skewed basis of
+//! the last substep only, and works for multibody joints, which write no impulses back.
+
+pub(crate) mod friction;
+mod reactions;
+
+use crate::error::{Error, JointId};
+use crate::joint_set::RapierJoint;
+use crate::math::rapier::dynamics::{
+    GenericJoint, MultibodyJointSet, RigidBody, RigidBodyBuilder, RigidBodyHandle,
+};
+use crate::math::rapier::pipeline::PhysicsWorld;
+use crate::math::{Pose, Real, Vector};
+use crate::solver::dense;
+use crate::solver::kkt::KktSolver;
+
+use super::Sets;
+
+/// One body's state at the start of the last substep (for the reaction recovery).
+#[derive(Clone, Copy, Debug, Default)]
+struct BodyStart {
+    pose: Pose,
+    com: Vector,
+    linvel: Vector,
+    angvel: Vector,
+    /// Non-constraint force and torque over the substep (N, N m).
+    force: Vector,
+    torque: Vector,
+}
+
+/// The Rapier backends' state: whether the multibody velocities were set up, and scratch
+/// every step rebuilds (substep records, the recovery solver).
+#[derive(Default)]
+#[cfg_attr(
+    feature = "serde-snapshot",
+    derive(serde::Serialize, serde::Deserialize)
+)]
+pub(crate) struct RapierBackend {
+    multibody: bool,
+    /// The first step was taken (the multibody generalized velocities are set up).
+    started: bool,
+    #[cfg_attr(feature = "serde-snapshot", serde(skip))]
+    starts: Vec<(RigidBodyHandle, BodyStart)>,
+    #[cfg_attr(feature = "serde-snapshot", serde(skip))]
+    gyro_added: Vec<(RigidBodyHandle, Vector)>,
+    #[cfg_attr(feature = "serde-snapshot", serde(skip))]
+    recovery: Option<KktSolver>,
+}
+
+/// What a step changes in the Rapier backends beyond the bodies: the multibody set (its
+/// generalized coordinates and velocities) and the start flag.
+pub(crate) struct RapierSave {
+    started: bool,
+    multibody: Option<MultibodyJointSet>,
+}
+
+impl RapierBackend {
+    /// The impulse (`multibody = false`) or multibody backend.
+    pub(crate) fn new(multibody: bool) -> RapierBackend {
+        RapierBackend {
+            multibody,
+            ..RapierBackend::default()
+        }
+    }
+
+    /// True for the multibody backend.
+    pub(crate) fn multibody(&self) -> bool {
+        self.multibody
+    }
+
+    /// Resolves grounded sides to fixed bodies. On the multibody backend one shared ground body
+    /// would make every grounded tree a branch of one multibody rooted there, whose dense solve
+    /// costs ~(total DOFs)^3 (200 independent five-body arms: seconds per step): each grounded
+    /// multibody joint gets its own fixed body instead, and a loop through the ground (a second
+    /// grounded joint on a tree that already holds a fixed body) is refused.
+    pub(crate) fn resolve_sides(
+        &self,
+        id: JointId,
+        physics: &mut PhysicsWorld,
+        ground: &mut Option<RigidBodyHandle>,
+        sides: [Option<RigidBodyHandle>; 2],
+    ) -> Result<[RigidBodyHandle; 2], Error> {
+        if !self.multibody {
+            return Ok(sides.map(|b| b.unwrap_or_else(|| super::shared_ground(physics, ground))));
+        }
+        if let Some(h) = sides[0].xor(sides[1])
+            && multibody_grounded(physics, h)
+        {
+            return Err(Error::Unsupported {
+                what: format!(
+                    "{id}: a multibody joint that closes a loop through the ground (the tree of \
+                     its body is grounded already)"
+                ),
+                hint: "multibody joints form trees with body 1 as the parent; use the impulse \
+                       backend for loops"
+                    .into(),
+            });
+        }
+        Ok(sides.map(|b| b.unwrap_or_else(|| physics.bodies.insert(RigidBodyBuilder::fixed()))))
+    }
+
+    /// Inserts the Rapier joint.
+    pub(crate) fn insert(
+        &self,
+        id: JointId,
+        physics: &mut PhysicsWorld,
+        sides: [RigidBodyHandle; 2],
+        generic: GenericJoint,
+    ) -> Result<RapierJoint, Error> {
+        if !self.multibody {
+            let h = physics
+                .impulse_joints
+                .insert(sides[0], sides[1], generic, true);
+            return Ok(RapierJoint::Impulse(h));
+        }
+        let h = physics
+            .multibody_joints
+            .insert(sides[0], sides[1], generic, true)
+            .ok_or_else(|| Error::Unsupported {
+                what: format!(
+                    "{id}: a multibody joint that closes a loop or gives body 2 a second parent"
+                ),
+                hint: "multibody joints form trees with body 1 as the parent; use the impulse \
+                       backend for loops"
+                    .into(),
+            })?;
+        if let Some((mb, _)) = physics.multibody_joints.get_mut(h) {
+            // Rapier gives every free angular DOF a default damping of 0.1: not MPC184's.
+            mb.damping_mut().fill(0.0);
+        }
+        Ok(RapierJoint::Multibody(h))
+    }
+
+    /// One step: friction motors set from the last reactions, then `n` Rapier calls.
+    pub(crate) fn step(&mut self, sets: &mut Sets, n: usize) {
+        if !self.started {
+            self.started = true;
+            if self.multibody {
+                init_multibody_velocities(sets);
+            }
+        }
+        friction::set_motors(sets);
+        for s in 0..n {
+            let last = s + 1 == n;
+            self.begin_substep(sets, last);
+            sets.physics.step();
+            self.end_substep(sets.physics);
+        }
+    }
+
+    /// Records the jointed bodies' state at the substep's start (the last substep only) and, on
+    /// the impulse backend, adds the gyroscopic torque for the substep.
+    fn begin_substep(&mut self, sets: &mut Sets, record: bool) {
+        self.starts.clear();
+        let mut touched: Vec<RigidBodyHandle> = Vec::new();
+        let mut seen = std::collections::HashSet::new();
+        for e in sets.joints.iter() {
+            for b in [e.body1, e.body2] {
+                if sets.physics.bodies[b].is_dynamic() && seen.insert(b) {
+                    touched.push(b);
+                }
+            }
+        }
+        let g = sets.physics.gravity;
+        for b in touched {
+            let (v, w) = self.velocity(sets.physics, b);
+            let rb = &mut sets.physics.bodies[b];
+            let inertia = crate::body::world_inertia(rb);
+            let gyro = -w.cross(inertia * w);
+            let start = BodyStart {
+                pose: *rb.position(),
+                com: rb.center_of_mass(),
+                linvel: v,
+                angvel: w,
+                force: rb.user_force() + g * (rb.mass() * rb.gravity_scale()),
+                torque: rb.user_torque() + gyro,
+            };
+            if !self.multibody {
+                // Rapier's own gyroscopic term is off on jointed bodies (crate::body::join).
+                rb.add_torque(gyro, false);
+                // Taken off again in end_substep (Rapier's forces persist across steps).
+                self.gyro_added.push((b, gyro));
+            }
+            if record {
+                self.starts.push((b, start));
+            }
+        }
+    }
+
+    /// Takes the substep's gyroscopic torques off again.
+    fn end_substep(&mut self, physics: &mut PhysicsWorld) {
+        for (b, gyro) in self.gyro_added.drain(..) {
+            physics.bodies[b].add_torque(-gyro, false);
+        }
+    }
+
+    /// A body's velocity on this backend (see [`RapierBackend::body_velocity`]).
+    fn velocity(&self, physics: &PhysicsWorld, h: RigidBodyHandle) -> (Vector, Vector) {
+        if self.multibody {
+            self.body_velocity(physics, h)
+        } else {
+            let rb = &physics.bodies[h];
+            (rb.linvel(), rb.angvel())
+        }
+    }
+
+    /// Linear and angular velocity of a body's centre of mass (world frame). Multibody links are
+    /// read through the multibody Jacobian: their `RigidBody` velocities lag one substep.
+    pub(crate) fn body_velocity(
+        &self,
+        physics: &PhysicsWorld,
+        h: RigidBodyHandle,
+    ) -> (Vector, Vector) {
+        let rb = &physics.bodies[h];
+        if let Some(link) = physics.multibody_joints.rigid_body_link(h)
+            && let Some(mb) = physics.multibody_joints.get_multibody(link.multibody)
+        {
+            let jac = mb.body_jacobian(link.id);
+            let qd = mb.generalized_velocity();
+            // Before the first step the Jacobians are not built yet (0 columns).
+            if jac.ncols() == qd.len() && jac.nrows() == 6 {
+                let v = jac * qd;
+                return (Vector::new(v[0], v[1], v[2]), Vector::new(v[3], v[4], v[5]));
+            }
+        }
+        (rb.linvel(), rb.angvel())
+    }
+
+    /// The state a step changes (see [`RapierSave`]).
+    pub(crate) fn save(&self, physics: &PhysicsWorld) -> RapierSave {
+        RapierSave {
+            started: self.started,
+            multibody: self.multibody.then(|| physics.multibody_joints.clone()),
+        }
+    }
+
+    /// Puts back a [`RapierBackend::save`].
+    pub(crate) fn restore(&mut self, physics: &mut PhysicsWorld, saved: RapierSave) {
+        self.started = saved.started;
+        if let Some(mb) = saved.multibody {
+            physics.multibody_joints = mb;
+        }
+    }
+}
+
+/// True if `h` is a link of a multibody that holds a fixed body (a grounded tree).
+fn multibody_grounded(physics: &PhysicsWorld, h: RigidBodyHandle) -> bool {
+    let mbs = &physics.multibody_joints;
+    mbs.rigid_body_link(h)
+        .and_then(|link| mbs.get_multibody(link.multibody))
+        .is_some_and(|mb| {
+            mb.links().any(|l| {
+                physics
+                    .bodies
+                    .get(l.rigid_body_handle())
+                    .is_some_and(RigidBody::is_fixed)
+            })
+        })
+}
+
+/// Multibody links take their velocities from generalized velocities, which start at zero:
+/// set them to the mass-weighted least-squares fit of the bodies' own velocities
+/// (`q' = (J^T M J)^-1 J^T M V`, the momentum-consistent projection onto the joints).
+fn init_multibody_velocities(sets: &mut Sets) {
+    let physics = &mut *sets.physics;
+    let mut seen = Vec::new();
+    for e in sets.joints.iter() {
+        if let Some(link) = physics.multibody_joints.rigid_body_link(e.body2)
+            && !seen.contains(&link.multibody)
+        {
+            seen.push(link.multibody);
+        }
+    }
+    for mbi in seen {
+        let bodies = &physics.bodies;
+        let Some(mb) = physics.multibody_joints.get_multibody_mut(mbi) else {
+            continue;
+        };
+        mb.forward_kinematics(bodies, true);
+        let n = mb.ndofs();
+        if n == 0 {
+            continue;
+        }
+        let mut a = vec![0.0 as Real; n * n];
+        let mut b = vec![0.0 as Real; n];
+        for (li, link) in mb.links().enumerate() {
+            let rb = &bodies[link.rigid_body_handle()];
+            let jac = mb.body_jacobian(li);
+            if jac.ncols() != n {
+                continue;
+            }
+            let m = rb.mass();
+            let inertia = crate::body::world_inertia(rb);
+            let (v, w) = (rb.linvel(), rb.angvel());
+            // M J column by column.
+            for c in 0..n {
+                let jl = Vector::new(jac[(0, c)], jac[(1, c)], jac[(2, c)]);
+                let ja = Vector::new(jac[(3, c)], jac[(4, c)], jac[(5, c)]);
+                let (ml, ma) = (jl * m, inertia * ja);
+                b[c] += ml.dot(v) + ma.dot(w);
+                for r in 0..n {
+                    let kl = Vector::new(jac[(0, r)], jac[(1, r)], jac[(2, r)]);
+                    let ka = Vector::new(jac[(3, r)], jac[(4, r)], jac[(5, r)]);
+                    a[r * n + c] += kl.dot(ml) + ka.dot(ma);
+                }
+            }
+        }
+        dense::cholesky_solve_dropping(&mut a, &mut b, n);
+        mb.generalized_velocity_mut().copy_from_slice(&b);
+    }
+}

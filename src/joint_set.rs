@@ -1,0 +1,594 @@
+//! The joint registry: every joint's model data (the [`Mpc184Joint`], its bodies and frames, its
+//! drives and loads) and its state (constraint rows, angle unwrapping, output, stop/lock/friction
+//! status). No solver state: a backend keeps its own, indexed by the same joint index.
+//!
+//! The split between model and state is what the rest of the crate relies on:
+//!
+//! - the model changes only through the world's API between steps (insert, remove, drive, load);
+//! - [`JointState`] is everything a step changes, one plain value per joint: the divergence
+//!   checkpoint copies it whole at every step's start and puts it back on failure, and the
+//!   snapshot serialises it with the rest (no list of fields to keep in step by hand);
+//! - [`JointSet::topology`] counts changes of the joints' row structure (a joint inserted or
+//!   removed, a drive set, a lock engaged), so a backend knows when to rebuild what it derived.
+
+use arrayvec::ArrayVec;
+
+use crate::catalogue::JointKind;
+use crate::dof::Dof;
+use crate::drive::{Drive, DriveLevel, DriveProfile};
+use crate::error::{Error, JointId};
+use crate::joint::Mpc184Joint;
+use crate::kinematics::{self, AngleUnwrap};
+use crate::math::rapier::dynamics::RigidBodySet;
+use crate::math::rapier::dynamics::{ImpulseJointHandle, MultibodyJointHandle, RigidBodyHandle};
+use crate::math::{Matrix, Pose, Real, Vector};
+use crate::output::{FrictionState, JointOutput};
+use crate::rows::{self, FramePair, RowKind};
+
+/// The largest number of constraint rows of one joint (its kind's rows, the screw coupling,
+/// and a drive or lock row on each free DOF fit in with room to spare).
+pub const MAX_JOINT_ROWS: usize = 12;
+
+/// A joint's constraint rows ([`crate::rows`]), stored inline.
+pub(crate) type Rows = ArrayVec<RowKind, MAX_JOINT_ROWS>;
+
+/// The Rapier joint that links a joint's two bodies (its constraint on the Rapier backends; on
+/// the Lagrange backend it puts the bodies in one island and keeps them from colliding).
+#[derive(Clone, Copy, Debug)]
+#[cfg_attr(
+    feature = "serde-snapshot",
+    derive(serde::Serialize, serde::Deserialize)
+)]
+pub(crate) enum RapierJoint {
+    Impulse(ImpulseJointHandle),
+    Multibody(MultibodyJointHandle),
+}
+
+/// Everything a step changes about one joint.
+#[derive(Clone, Debug, Default)]
+#[cfg_attr(
+    feature = "serde-snapshot",
+    derive(serde::Serialize, serde::Deserialize)
+)]
+pub(crate) struct JointState {
+    /// The constraint rows: the kind's, then drive and lock rows; screw and drive rows carry
+    /// their unwrapping references.
+    pub(crate) rows: Rows,
+    /// Unwrapping of the Bryant angles psi, phi, theta.
+    pub(crate) unwrap: [AngleUnwrap; 3],
+    /// The output after the last step.
+    pub(crate) output: JointOutput,
+    /// Locked DOFs and the value they are held at (absolute measure).
+    pub(crate) locked: [Option<Real>; 6],
+    /// Locks engaged during the current step whose hold rows join at the next step.
+    pub(crate) pending: ArrayVec<(Dof, Real), 6>,
+    /// DOFs at a stop during the last step.
+    pub(crate) at_stop: [bool; 6],
+    /// Friction state of the last substep.
+    pub(crate) friction: Option<FrictionState>,
+}
+
+/// One joint: its model data and its state.
+#[derive(Clone, Debug)]
+#[cfg_attr(
+    feature = "serde-snapshot",
+    derive(serde::Serialize, serde::Deserialize)
+)]
+pub(crate) struct JointEntry {
+    pub(crate) joint: Mpc184Joint,
+    pub(crate) body1: RigidBodyHandle,
+    pub(crate) body2: RigidBodyHandle,
+    /// Frame I in body 1's local coordinates, frame J in body 2's.
+    pub(crate) ansys: [Pose; 2],
+    /// The lowering frames (coincident at time 0) in each body's local coordinates.
+    pub(crate) low: [Pose; 2],
+    pub(crate) rapier: RapierJoint,
+    /// The absolute measures at time 0 (m, rad).
+    pub(crate) initial: [Real; 6],
+    /// Prescribed motions (`DJ`), one per DOF.
+    pub(crate) drives: Vec<Drive>,
+    /// Applied loads (`FJ`), one per DOF.
+    pub(crate) loads: Vec<Drive>,
+    pub(crate) state: JointState,
+}
+
+/// The joints of a world, by dense index ([`JointId`]); removed joints leave an empty slot.
+#[derive(Clone, Debug, Default)]
+#[cfg_attr(
+    feature = "serde-snapshot",
+    derive(serde::Serialize, serde::Deserialize)
+)]
+pub(crate) struct JointSet {
+    entries: Vec<Option<JointEntry>>,
+    topology: u64,
+}
+
+fn non_finite(id: JointId, dof: Dof, what: &str) -> Error {
+    Error::InvalidDof {
+        joint: id,
+        dof,
+        reason: format!("non-finite {what} profile"),
+    }
+}
+
+impl JointSet {
+    /// The number of slots (joints ever inserted).
+    pub(crate) fn len(&self) -> usize {
+        self.entries.len()
+    }
+
+    /// The id the next inserted joint gets.
+    pub(crate) fn next_id(&self) -> JointId {
+        JointId(self.entries.len() as u32)
+    }
+
+    /// A counter of changes to the row structure (see the module docs).
+    pub(crate) fn topology(&self) -> u64 {
+        self.topology
+    }
+
+    /// Records a change of the row structure made through [`JointSet::slots_mut`].
+    pub(crate) fn touch(&mut self) {
+        self.topology += 1;
+    }
+
+    /// Every slot, by joint index.
+    pub(crate) fn slots(&self) -> &[Option<JointEntry>] {
+        &self.entries
+    }
+
+    /// Every slot, by joint index, for a backend's per-step work. A change of a joint's number
+    /// of rows must be followed by [`JointSet::touch`].
+    pub(crate) fn slots_mut(&mut self) -> &mut [Option<JointEntry>] {
+        &mut self.entries
+    }
+
+    /// The joint at index `j`, if any.
+    pub(crate) fn get(&self, j: usize) -> Option<&JointEntry> {
+        self.entries.get(j).and_then(Option::as_ref)
+    }
+
+    /// The joint at index `j`, if any, mutably.
+    pub(crate) fn get_mut(&mut self, j: usize) -> Option<&mut JointEntry> {
+        self.entries.get_mut(j).and_then(Option::as_mut)
+    }
+
+    /// Every joint.
+    pub(crate) fn iter(&self) -> impl Iterator<Item = &JointEntry> {
+        self.entries.iter().flatten()
+    }
+
+    /// Every joint, mutably.
+    pub(crate) fn iter_mut(&mut self) -> impl Iterator<Item = &mut JointEntry> {
+        self.entries.iter_mut().flatten()
+    }
+
+    /// Ids of all joints.
+    pub(crate) fn ids(&self) -> impl Iterator<Item = JointId> + '_ {
+        self.entries
+            .iter()
+            .enumerate()
+            .filter(|(_, e)| e.is_some())
+            .map(|(i, _)| JointId(i as u32))
+    }
+
+    /// The joint `id`, or [`Error::UnknownJoint`].
+    pub(crate) fn entry(&self, id: JointId) -> Result<&JointEntry, Error> {
+        self.get(id.0 as usize).ok_or(Error::UnknownJoint(id))
+    }
+
+    /// The joint `id` mutably, or [`Error::UnknownJoint`].
+    pub(crate) fn entry_mut(&mut self, id: JointId) -> Result<&mut JointEntry, Error> {
+        self.get_mut(id.0 as usize).ok_or(Error::UnknownJoint(id))
+    }
+
+    /// Adds a joint; its id is [`JointSet::next_id`] before the call.
+    pub(crate) fn push(&mut self, entry: JointEntry) -> JointId {
+        let id = self.next_id();
+        self.entries.push(Some(entry));
+        self.touch();
+        id
+    }
+
+    /// Takes a joint out (its slot stays empty).
+    pub(crate) fn remove(&mut self, id: JointId) -> Result<JointEntry, Error> {
+        let entry = self
+            .entries
+            .get_mut(id.0 as usize)
+            .and_then(Option::take)
+            .ok_or(Error::UnknownJoint(id))?;
+        self.touch();
+        Ok(entry)
+    }
+
+    /// The joints attached to `body`.
+    pub(crate) fn attached_to(&self, body: RigidBodyHandle) -> Vec<JointId> {
+        self.entries
+            .iter()
+            .enumerate()
+            .filter_map(|(i, e)| {
+                e.as_ref()
+                    .filter(|e| e.body1 == body || e.body2 == body)
+                    .map(|_| JointId(i as u32))
+            })
+            .collect()
+    }
+
+    /// Copies every joint's state into `out` (the divergence checkpoint; no allocation once
+    /// `out` has its size).
+    pub(crate) fn save_states(&self, out: &mut Vec<Option<JointState>>) {
+        out.truncate(self.entries.len());
+        out.resize_with(self.entries.len(), || None);
+        for (slot, e) in out.iter_mut().zip(&self.entries) {
+            match e {
+                Some(e) => match slot {
+                    Some(s) => s.clone_from(&e.state),
+                    None => *slot = Some(e.state.clone()),
+                },
+                None => *slot = None,
+            }
+        }
+    }
+
+    /// Puts back the states saved by [`JointSet::save_states`].
+    pub(crate) fn restore_states(&mut self, saved: &[Option<JointState>]) {
+        for (e, s) in self.entries.iter_mut().zip(saved) {
+            if let (Some(e), Some(s)) = (e, s) {
+                e.state.clone_from(s);
+            }
+        }
+        self.touch();
+    }
+
+    /// Prescribes a free DOF's displacement, velocity or acceleration from time `now` (see
+    /// `Mpc184World::set_drive_level`): a drive row replaces an earlier drive of the DOF.
+    pub(crate) fn set_drive(
+        &mut self,
+        id: JointId,
+        dof: Dof,
+        level: DriveLevel,
+        profile: DriveProfile,
+        now: Real,
+    ) -> Result<(), Error> {
+        let entry = self.entry_mut(id)?;
+        entry.check_free(id, dof)?;
+        if !profile.is_finite() {
+            return Err(non_finite(id, dof, "drive"));
+        }
+        let k = dof.index();
+        let o = &entry.state.output;
+        let rate = if dof.is_rotation() {
+            o.angular_velocity[k - 3]
+        } else {
+            o.velocity[k]
+        };
+        let drive = Drive {
+            level,
+            since: now,
+            start_value: o.measure[k] - entry.initial[k],
+            start_rate: rate,
+            ..Drive::new(dof, profile)
+        };
+        // The row measures translations from node J's initial position (0 at time 0) and
+        // rotations as the absolute Bryant angle; the reference is today's unwrapped angle.
+        let (initial, reference) = if dof.is_rotation() {
+            (entry.initial[k], o.measure[k])
+        } else {
+            (0.0, 0.0)
+        };
+        entry.replace_dof_row(
+            id,
+            RowKind::Drive {
+                dof,
+                target: 0.0,
+                initial,
+                reference,
+            },
+        )?;
+        entry.drives.retain(|d| d.dof != dof);
+        entry.drives.push(drive);
+        self.touch();
+        Ok(())
+    }
+
+    /// Removes the drive of a DOF (the DOF is free again).
+    pub(crate) fn remove_drive(&mut self, id: JointId, dof: Dof) -> Result<(), Error> {
+        let entry = self.entry_mut(id)?;
+        entry.drives.retain(|d| d.dof != dof);
+        entry
+            .state
+            .rows
+            .retain(|r| !matches!(r, RowKind::Drive { dof: d, .. } if *d == dof));
+        self.touch();
+        Ok(())
+    }
+
+    /// Applies a load on a free DOF following `profile`, replacing an earlier one.
+    pub(crate) fn set_load(
+        &mut self,
+        id: JointId,
+        dof: Dof,
+        profile: DriveProfile,
+    ) -> Result<(), Error> {
+        let entry = self.entry_mut(id)?;
+        entry.check_free(id, dof)?;
+        if !profile.is_finite() {
+            return Err(non_finite(id, dof, "load"));
+        }
+        entry.loads.retain(|d| d.dof != dof);
+        entry.loads.push(Drive::new(dof, profile));
+        Ok(())
+    }
+
+    /// Removes the load on a DOF.
+    pub(crate) fn remove_load(&mut self, id: JointId, dof: Dof) -> Result<(), Error> {
+        self.entry_mut(id)?.loads.retain(|d| d.dof != dof);
+        Ok(())
+    }
+
+    /// Moves every screw and drive row's unwrapping reference to the bodies' current rotation
+    /// (a screw may turn any number of times; each substep turns it by far less than pi).
+    pub(crate) fn update_row_references(&mut self, bodies: &RigidBodySet) {
+        for e in self.entries.iter_mut().flatten() {
+            if !e
+                .state
+                .rows
+                .iter()
+                .any(|r| matches!(r, RowKind::Screw { .. } | RowKind::Drive { .. }))
+            {
+                continue;
+            }
+            let f = e.low_frames(bodies);
+            for r in e.state.rows.iter_mut() {
+                match r {
+                    RowKind::Screw { reference, .. } => {
+                        *reference = rows::screw_angle(&f, *reference);
+                    }
+                    RowKind::Drive { dof, reference, .. } => {
+                        *reference = rows::dof_measure(&f, *dof, *reference);
+                    }
+                    RowKind::Linear { .. } | RowKind::Angular { .. } | RowKind::Distance { .. } => {
+                    }
+                }
+            }
+        }
+    }
+}
+
+impl JointEntry {
+    /// A new joint between bodies `body1` and `body2` at their current poses: its rows hold
+    /// their initial values, its measures start from the bodies' poses now.
+    pub(crate) fn new(
+        joint: Mpc184Joint,
+        bodies: &RigidBodySet,
+        sides: [RigidBodyHandle; 2],
+        frames: JointFrames,
+        rapier: RapierJoint,
+    ) -> JointEntry {
+        let rows = rows::joint_rows(&joint.kind).into_iter().collect();
+        let mut entry = JointEntry {
+            joint,
+            body1: sides[0],
+            body2: sides[1],
+            ansys: frames.ansys,
+            low: frames.low,
+            rapier,
+            initial: [0.0; 6],
+            drives: Vec::new(),
+            loads: Vec::new(),
+            state: JointState {
+                rows,
+                ..JointState::default()
+            },
+        };
+        entry.hold_initial_values(bodies);
+        let (m, wrapped) = entry.measures(bodies);
+        entry.state.unwrap = wrapped.map(AngleUnwrap::new);
+        entry.initial = m;
+        entry
+    }
+
+    /// Sets each row's held value from the bodies' poses now (angular targets, the screw's
+    /// starting angle, the rigid link's length).
+    fn hold_initial_values(&mut self, bodies: &RigidBodySet) {
+        let f0 = self.low_frames(bodies);
+        for r in self.state.rows.iter_mut() {
+            match r {
+                RowKind::Angular { .. } => {
+                    let value = r.eval(&f0).value;
+                    if let RowKind::Angular { target, .. } = r {
+                        *target = value;
+                    }
+                }
+                RowKind::Screw {
+                    reference, theta0, ..
+                } => {
+                    *theta0 = rows::screw_angle(&f0, 0.0);
+                    *reference = *theta0;
+                }
+                RowKind::Distance { length } => {
+                    *length = (f0.p2 - f0.p1).length();
+                }
+                RowKind::Linear { .. } | RowKind::Drive { .. } => {}
+            }
+        }
+    }
+
+    /// The DOF is free in this joint's kind, or [`Error::InvalidDof`].
+    fn check_free(&self, id: JointId, dof: Dof) -> Result<(), Error> {
+        if self.joint.kind.free().contains(dof) {
+            Ok(())
+        } else {
+            Err(Error::InvalidDof {
+                joint: id,
+                dof,
+                reason: format!("not a free DOF of a {} joint", self.joint.kind.name()),
+            })
+        }
+    }
+
+    /// Replaces the drive (or lock) row of `row`'s DOF by `row`.
+    pub(crate) fn replace_dof_row(&mut self, id: JointId, row: RowKind) -> Result<(), Error> {
+        let RowKind::Drive { dof, .. } = row else {
+            return Ok(());
+        };
+        let rows = &mut self.state.rows;
+        rows.retain(|r| !matches!(r, RowKind::Drive { dof: d, .. } if *d == dof));
+        rows.try_push(row).map_err(|_| Error::Unsupported {
+            what: format!("{id}: more than {MAX_JOINT_ROWS} constraint rows"),
+            hint: "a joint's rows are its kind's, the screw coupling and one drive or lock row \
+                   per free DOF"
+                .into(),
+        })
+    }
+
+    /// The lowering frames (rows are measured between them) at the bodies' poses now.
+    pub(crate) fn low_frames(&self, bodies: &RigidBodySet) -> FramePair {
+        let (b1, b2) = (&bodies[self.body1], &bodies[self.body2]);
+        FramePair::at(
+            &self.low,
+            crate::body::pose_and_com(b1),
+            crate::body::pose_and_com(b2),
+        )
+    }
+
+    /// Absolute measures of the joint now, and the three wrapped rotation angles.
+    pub(crate) fn measures(&self, bodies: &RigidBodySet) -> ([Real; 6], [Real; 3]) {
+        let f1 = *bodies[self.body1].position() * self.ansys[0];
+        let f2 = *bodies[self.body2].position() * self.ansys[1];
+        let a1 = Matrix::from_quat(f1.rotation);
+        let a2 = Matrix::from_quat(f2.rotation);
+        let u = kinematics::relative_displacement(&a1, f1.translation, f2.translation);
+        let rel = kinematics::relative_rotation(&a1, &a2);
+        // The genb joint measures its rotations as 3-1-3 Euler angles (alpha about e3, beta
+        // about the intermediate x, gamma about the final z), reported in the ROTX, ROTY, ROTZ
+        // slots in that order (our reading: the text names the angles, not their slots);
+        // every other kind uses Bryant angles.
+        let ang = if matches!(self.joint.kind, JointKind::Genb { .. }) {
+            kinematics::euler_313_angles(&rel)
+        } else {
+            kinematics::bryant_angles(&rel)
+        };
+        ([u.x, u.y, u.z, ang[0], ang[1], ang[2]], ang)
+    }
+
+    /// Translational and rotational constraint errors of the joint's rows at the bodies' poses
+    /// now (m, ~rad; drives excluded).
+    pub(crate) fn gaps(&self, bodies: &RigidBodySet) -> (Real, Real) {
+        let p1 = *bodies[self.body1].position();
+        let p2 = *bodies[self.body2].position();
+        let fp = FramePair::at(&self.low, (p1, Vector::ZERO), (p2, Vector::ZERO));
+        let (mut gap, mut angular_gap): (Real, Real) = (0.0, 0.0);
+        for r in &self.state.rows {
+            let c = r.eval(&fp).value.abs();
+            match r {
+                RowKind::Linear { .. } | RowKind::Screw { .. } | RowKind::Distance { .. } => {
+                    gap = gap.max(c);
+                }
+                // A drive's error is a tracking error, not a gap.
+                RowKind::Drive { .. } => {}
+                RowKind::Angular { .. } => angular_gap = angular_gap.max(c),
+            }
+        }
+        (gap, angular_gap)
+    }
+
+    /// Refreshes the output's kinematic part (measures, rates, gaps) and status part (stops,
+    /// locks, friction, spring energy) from the bodies now; `velocity` gives a body's linear
+    /// and angular velocity. The reactions and element forces are the backend's to write.
+    pub(crate) fn refresh_output(
+        &mut self,
+        bodies: &RigidBodySet,
+        velocity: impl Fn(RigidBodyHandle) -> (Vector, Vector),
+    ) {
+        let (mut m, wrapped) = self.measures(bodies);
+        let f1 = *bodies[self.body1].position() * self.ansys[0];
+        let f2 = *bodies[self.body2].position() * self.ansys[1];
+        let a1 = Matrix::from_quat(f1.rotation);
+        let point = |b: RigidBodyHandle, x: Vector| {
+            let rb = &bodies[b];
+            if !rb.is_dynamic() {
+                return (rb.velocity_at_point(x), rb.angvel());
+            }
+            let (v, w) = velocity(b);
+            (v + w.cross(x - rb.center_of_mass()), w)
+        };
+        let (v1, w1) = point(self.body1, f1.translation);
+        let (v2, w2) = point(self.body2, f2.translation);
+        let vel = kinematics::relative_velocity(&a1, f1.translation, f2.translation, v1, v2, w1);
+        let omg = kinematics::relative_angular_velocity(&a1, w1, w2);
+        let (gap, angular_gap) = self.gaps(bodies);
+        let s = &mut self.state;
+        for k in 0..3 {
+            // psi and theta are unwrapped; phi = asin(..) never wraps.
+            m[3 + k] = if k == 1 {
+                wrapped[k]
+            } else {
+                s.unwrap[k].update(wrapped[k])
+            };
+        }
+        let d: [Real; 6] = core::array::from_fn(|k| m[k] - self.initial[k]);
+        let o = &mut s.output;
+        o.gap = gap;
+        o.angular_gap = angular_gap;
+        o.measure = m;
+        o.displacement = Vector::new(d[0], d[1], d[2]);
+        o.rotation = Vector::new(d[3], d[4], d[5]);
+        o.velocity = vel;
+        o.angular_velocity = omg;
+        o.stops = s.at_stop.iter().filter(|x| **x).count() as u8;
+        o.locks = s.locked.iter().filter(|x| x.is_some()).count() as u8;
+        o.friction = s.friction;
+        let b = &self.joint.behaviour;
+        o.spring_energy = if b.has_forces() {
+            let x: [Real; 6] =
+                core::array::from_fn(|k| m[k] - b.reference[k].unwrap_or(self.initial[k]));
+            b.spring_energy(&x, self.joint.kind.free())
+        } else {
+            0.0
+        };
+    }
+
+    /// Writes a wrench on body 2 (force, torque about its centre of mass; world frame) into the
+    /// output as the reaction force and moment on node J in frame I.
+    pub(crate) fn set_reaction(&mut self, bodies: &RigidBodySet, force: Vector, torque: Vector) {
+        let rb2 = &bodies[self.body2];
+        let pose1 = bodies[self.body1].position();
+        let node_j = *rb2.position() * self.ansys[1].translation;
+        let axes_i = Matrix::from_quat(pose1.rotation * self.ansys[0].rotation);
+        let moment = torque - (node_j - rb2.center_of_mass()).cross(force);
+        self.state.output.force = axes_i.transpose() * force;
+        self.state.output.moment = axes_i.transpose() * moment;
+    }
+}
+
+/// A joint's frames in its bodies' local coordinates (see [`JointEntry`]).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct JointFrames {
+    /// Frame I on body 1, frame J on body 2.
+    pub(crate) ansys: [Pose; 2],
+    /// The frames rows are measured between.
+    pub(crate) low: [Pose; 2],
+    /// Rapier's joint frames: coincident at time 0 at node J with frame I's axes.
+    pub(crate) rapier: [Pose; 2],
+}
+
+impl JointFrames {
+    /// The frames of `joint` on bodies at `pose1` and `pose2`.
+    pub(crate) fn new(joint: &Mpc184Joint, pose1: Pose, pose2: Pose) -> JointFrames {
+        let link = matches!(joint.kind, JointKind::RigidLink);
+        let ansys1 = pose1.inverse() * Pose::from_parts(joint.node1, joint.axes1);
+        let ansys2 = pose2.inverse() * Pose::from_parts(joint.node2, joint.axes2());
+        let low_world = Pose::from_parts(joint.node2, joint.axes1);
+        // Rapier's frames coincide at time 0 (both with frame I's axes); our rows measure frame
+        // 2 with the local system at J itself and hold each row's initial value (crate::rows).
+        let rapier = [pose1.inverse() * low_world, pose2.inverse() * low_world];
+        // A rigid link measures its distance from node I itself.
+        let low = [if link { ansys1 } else { rapier[0] }, ansys2];
+        JointFrames {
+            ansys: [ansys1, ansys2],
+            low,
+            rapier,
+        }
+    }
+}
