@@ -33,6 +33,31 @@ struct Active {
     dissipative: bool,
 }
 
+/// Which stage asks, and with what.
+#[derive(Clone, Copy)]
+struct Stage {
+    h: Real,
+    /// Velocity level (`v'` in `rhs_b`, the gap after `h` predicted from it) or position level
+    /// (the gap now, after the projection).
+    velocity_level: bool,
+    /// Position level: the violation a limit may keep (m or rad).
+    tol: Real,
+}
+
+/// One limited joint as the stage sees it.
+struct Limited {
+    joint: usize,
+    /// The DOFs' measures and rows (frame I).
+    m: [Real; 6],
+    rows: [RowEval; 6],
+    slots: [Option<usize>; 2],
+    /// The sides' velocities now (`v'` at velocity level) and at the substep's start.
+    v: [[Vector; 2]; 2],
+    v_start: [[Vector; 2]; 2],
+    /// A stop that lands instead of reflecting (penalty method, screw joint).
+    plastic: bool,
+}
+
 /// Collects the limits predicted active. `level`: velocity (`v` in `rhs_b`, the gap after `h`
 /// predicted from it) or position (the gap now, after the projection).
 fn active(
@@ -42,6 +67,11 @@ fn active(
     velocity_level: bool,
     tol: Real,
 ) -> Vec<Active> {
+    let stage = Stage {
+        h,
+        velocity_level,
+        tol,
+    };
     let mut out = Vec::new();
     // The smallest gap now or predicted after the substep (velocity level).
     let mut near = Real::INFINITY;
@@ -53,46 +83,9 @@ fn active(
         if b.stops.is_empty() && b.locks.is_empty() {
             continue;
         }
-        let (f, slots, vel) = frames(ls, &sets.physics.bodies, e);
-        let (m, rows) = dof_rows(&f, [e.state.output.measure[3], e.state.output.measure[5]]);
-        let plastic = matches!(e.joint.method, ConstraintMethod::Penalty { .. })
-            || matches!(e.joint.kind, JointKind::Screw { .. });
-        // The velocity to predict with: the solved v' (rhs_b) for dynamic sides.
-        let v_of = |slot: Option<usize>, fallback: [Vector; 2]| match slot {
-            Some(i) if velocity_level => {
-                let x = ls.rhs_b[i];
-                [Vector::new(x[0], x[1], x[2]), Vector::new(x[3], x[4], x[5])]
-            }
-            _ => fallback,
-        };
-        let v1 = v_of(slots[0], vel[0]);
-        let v2 = v_of(slots[1], vel[1]);
-        // Locks engaged this step whose row joins at the next step: held at their value
-        // (landing again at the end of the substep, the energy removed booked).
+        let lim = limited(ls, sets, j, e, velocity_level);
         if velocity_level {
-            for &(dof, value) in &e.state.pending {
-                let k = dof.index();
-                let row = rows[k];
-                let rate = row_rate(&row, v1, v2);
-                let target = -(m[k] - value) / h;
-                let side: Real = if rate > target { -1.0 } else { 1.0 };
-                out.push(Active {
-                    joint: j,
-                    dof,
-                    side,
-                    row: RowEval {
-                        value: side * (m[k] - value),
-                        j1: [row.j1[0] * side, row.j1[1] * side],
-                        j2: [row.j2[0] * side, row.j2[1] * side],
-                    },
-                    slots,
-                    change: side * (target - rate),
-                    before: side * rate,
-                    // Holding: the load's half kick put in what this takes out (both
-                    // O(h^2) and booked as neither).
-                    dissipative: false,
-                });
-            }
+            hold_pending(&lim, &e.state.pending, h, &mut out);
         }
         let limits = b
             .stops
@@ -100,69 +93,8 @@ fn active(
             .map(|l| (l, false))
             .chain(b.locks.iter().map(|l| (l, true)));
         for (l, is_lock) in limits {
-            let k = l.dof.index();
-            if e.state.locked[k].is_some() {
-                continue;
-            }
-            let row = rows[k];
-            let rate = row_rate(&row, v1, v2);
-            // The rate at the start of the substep, before this substep's forces.
-            let rate_n = row_rate(&row, vel[0], vel[1]);
-            for (side, limit) in [(1.0 as Real, l.min), (-1.0, l.max)] {
-                if !limit.is_finite() {
-                    continue;
-                }
-                let gap = side * (m[k] - limit);
-                let g_rate = side * rate;
-                if velocity_level {
-                    near = near.min(gap).min(gap + h * g_rate);
-                }
-                let (change, dissipative) = if velocity_level {
-                    if gap + h * g_rate >= 0.0 || g_rate >= 0.0 && gap >= 0.0 {
-                        continue;
-                    }
-                    let land = -gap / h;
-                    if plastic || is_lock {
-                        (land.max(0.0) - g_rate, true)
-                    } else {
-                        // Elastic: the scheme's velocities are half-step velocities
-                        // (positions advance with the end-of-substep velocity), so the
-                        // energy-consistent reflection at the substep's start reverses the
-                        // rate the substep started with: `g+ = -g_n` (the velocity at
-                        // `t_n`, the mean of the two half steps, changes sign exactly:
-                        // reversing `g'` instead gains `h |g'| |a|` per impact, measured as
-                        // +2.4e-3 m g L per impact on the stop pendulum). Never left beyond
-                        // the limit at the substep's end.
-                        let approach = (side * rate_n).min(0.0);
-                        let bounce = -approach;
-                        if bounce >= land {
-                            (bounce - g_rate, false)
-                        } else {
-                            (land - g_rate, true)
-                        }
-                    }
-                } else {
-                    if gap >= -tol {
-                        continue;
-                    }
-                    (-gap, false)
-                };
-                let signed = RowEval {
-                    value: gap,
-                    j1: [row.j1[0] * side, row.j1[1] * side],
-                    j2: [row.j2[0] * side, row.j2[1] * side],
-                };
-                out.push(Active {
-                    joint: j,
-                    dof: l.dof,
-                    side,
-                    row: signed,
-                    slots,
-                    change,
-                    before: g_rate,
-                    dissipative,
-                });
-                let _ = is_lock;
+            if e.state.locked[l.dof.index()].is_none() {
+                near = near.min(limit_rows(&lim, l, is_lock, stage, &mut out));
             }
         }
     }
@@ -173,6 +105,140 @@ fn active(
         ls.limits_clear = out.is_empty() && !pending && near > LIMIT_MARGIN;
     }
     out
+}
+
+/// Joint `j` as the limit stage sees it.
+fn limited(
+    ls: &LagrangeState,
+    sets: &Sets,
+    j: usize,
+    e: &crate::joint_set::JointEntry,
+    velocity_level: bool,
+) -> Limited {
+    let (f, slots, vel) = frames(ls, &sets.physics.bodies, e);
+    let (m, rows) = dof_rows(&f, [e.state.output.measure[3], e.state.output.measure[5]]);
+    let plastic = matches!(e.joint.method, ConstraintMethod::Penalty { .. })
+        || matches!(e.joint.kind, JointKind::Screw { .. });
+    // The velocity to predict with: the solved v' (rhs_b) for dynamic sides.
+    let v_of = |slot: Option<usize>, fallback: [Vector; 2]| match slot {
+        Some(i) if velocity_level => {
+            let x = ls.rhs_b[i];
+            [Vector::new(x[0], x[1], x[2]), Vector::new(x[3], x[4], x[5])]
+        }
+        _ => fallback,
+    };
+    Limited {
+        joint: j,
+        m,
+        rows,
+        slots,
+        v: [v_of(slots[0], vel[0]), v_of(slots[1], vel[1])],
+        v_start: vel,
+        plastic,
+    }
+}
+
+/// Locks engaged this step whose row joins at the next step: held at their value (landing
+/// again at the end of the substep, the energy removed booked).
+fn hold_pending(lim: &Limited, pending: &[(Dof, Real)], h: Real, out: &mut Vec<Active>) {
+    for &(dof, value) in pending {
+        let k = dof.index();
+        let row = lim.rows[k];
+        let rate = row_rate(&row, lim.v[0], lim.v[1]);
+        let target = -(lim.m[k] - value) / h;
+        let side: Real = if rate > target { -1.0 } else { 1.0 };
+        out.push(Active {
+            joint: lim.joint,
+            dof,
+            side,
+            row: RowEval {
+                value: side * (lim.m[k] - value),
+                j1: [row.j1[0] * side, row.j1[1] * side],
+                j2: [row.j2[0] * side, row.j2[1] * side],
+            },
+            slots: lim.slots,
+            change: side * (target - rate),
+            before: side * rate,
+            // Holding: the load's half kick put in what this takes out (both O(h^2) and booked
+            // as neither).
+            dissipative: false,
+        });
+    }
+}
+
+/// The sides of limit `l` (a stop, or a lock not yet engaged) predicted active; returns the
+/// smallest gap now or predicted after the substep (velocity level; infinite otherwise).
+fn limit_rows(
+    lim: &Limited,
+    l: &crate::behaviour::Limit,
+    is_lock: bool,
+    stage: Stage,
+    out: &mut Vec<Active>,
+) -> Real {
+    let Stage {
+        h,
+        velocity_level,
+        tol,
+    } = stage;
+    let mut near = Real::INFINITY;
+    let k = l.dof.index();
+    let row = lim.rows[k];
+    let rate = row_rate(&row, lim.v[0], lim.v[1]);
+    // The rate at the start of the substep, before this substep's forces.
+    let rate_n = row_rate(&row, lim.v_start[0], lim.v_start[1]);
+    for (side, limit) in [(1.0 as Real, l.min), (-1.0, l.max)] {
+        if !limit.is_finite() {
+            continue;
+        }
+        let gap = side * (lim.m[k] - limit);
+        let g_rate = side * rate;
+        if velocity_level {
+            near = near.min(gap).min(gap + h * g_rate);
+        }
+        let (change, dissipative) = if velocity_level {
+            if gap + h * g_rate >= 0.0 || g_rate >= 0.0 && gap >= 0.0 {
+                continue;
+            }
+            let land = -gap / h;
+            if lim.plastic || is_lock {
+                (land.max(0.0) - g_rate, true)
+            } else {
+                // Elastic: the scheme's velocities are half-step velocities (positions advance
+                // with the end-of-substep velocity), so the energy-consistent reflection at the
+                // substep's start reverses the rate the substep started with: `g+ = -g_n` (the
+                // velocity at `t_n`, the mean of the two half steps, changes sign exactly:
+                // reversing `g'` instead gains `h |g'| |a|` per impact, measured as +2.4e-3
+                // m g L per impact on the stop pendulum). Never left beyond the limit at the
+                // substep's end.
+                let bounce = -(side * rate_n).min(0.0);
+                if bounce >= land {
+                    (bounce - g_rate, false)
+                } else {
+                    (land - g_rate, true)
+                }
+            }
+        } else {
+            if gap >= -tol {
+                continue;
+            }
+            (-gap, false)
+        };
+        out.push(Active {
+            joint: lim.joint,
+            dof: l.dof,
+            side,
+            row: RowEval {
+                value: gap,
+                j1: [row.j1[0] * side, row.j1[1] * side],
+                j2: [row.j2[0] * side, row.j2[1] * side],
+            },
+            slots: lim.slots,
+            change,
+            before: g_rate,
+            dissipative,
+        });
+    }
+    near
 }
 
 impl Effects {
