@@ -168,5 +168,5 @@ pub enum Error {
     },
     /// An APDL deck that could not be read.
     #[error(transparent)]
-    Deck(#[from] crate::deck::DeckError),
+    Deck(#[from] crate::apdl::DeckError),
 }

@@ -34,6 +34,7 @@ pub mod solver;
 pub mod statics;
 pub mod world;
 
+pub(crate) mod apdl;
 pub(crate) mod backend;
 pub(crate) mod body;
 pub(crate) mod joint_set;

@@ -45,13 +45,13 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 
-use crate::behaviour::{Sym6, Table};
-use crate::catalogue::JointKind;
-use crate::deck::error::{DeckError, DeckErrorKind};
-use crate::deck::model::{
+use crate::apdl::{
     AnalysisType, Deck, DofLabel, ElementName, ElementRole, ForceLabel, JoinTable, LoadRamp,
     MotionKind,
 };
+use crate::apdl::{DeckError, DeckErrorKind};
+use crate::behaviour::{Sym6, Table};
+use crate::catalogue::JointKind;
 use crate::dof::{Dof, DofMask};
 use crate::error::{Error, JointId};
 use crate::joint::{ConstraintMethod, Mpc184Joint};
@@ -1336,7 +1336,7 @@ type BuiltJoint = (Mpc184Joint, Option<FrictionData>);
 /// difference here: the constraint is exact either way.
 fn build_link(
     deck: &Deck,
-    e: &crate::deck::model::Element,
+    e: &crate::apdl::Element,
     notes: &mut Vec<String>,
 ) -> Result<BuiltJoint, Error> {
     let pos = |n: Option<u32>| -> Result<Vector, Error> {
@@ -1474,7 +1474,7 @@ fn sec_geometry(fd: &FrictionData) -> [Option<Real>; 3] {
 
 fn build_joint(
     deck: &Deck,
-    e: &crate::deck::model::Element,
+    e: &crate::apdl::Element,
     node_body: &BTreeMap<u32, (Option<usize>, Vector)>,
     bodies: &[DeckBody],
     notes: &mut Vec<String>,

@@ -1,6 +1,8 @@
 //! The APDL deck reader: a subset of Mechanical APDL input for rigid multibody models with
-//! MPC184 joints, read into plain data ([`Deck`]; the parser has no Rapier types), and the builder
-//! (`DeckModel::build`, `build.rs`) that turns a [`Deck`] into a runnable `Mpc184World`.
+//! MPC184 joints, read into plain data ([`Deck`]) by the parser (the crate's `apdl` module: it depends on
+//! nothing else of the crate and has no Rapier types, as rapier's `mjcf-rs` beside
+//! `rapier3d-mjcf`), and the builder (`DeckModel::build`, `build.rs`) that turns a [`Deck`] into
+//! a runnable `Mpc184World`.
 //!
 //! # Syntax
 //! - Commands are case-insensitive, fields are separated by commas and blank fields are "not
@@ -52,20 +54,15 @@
 //! ```
 
 mod build;
-mod error;
-mod expr;
-mod model;
-mod parse;
 
-pub use build::{
-    BuildOptions, DeckBody, DeckJoint, DeckModel, FrictionData, POINT_MASS_INERTIA, StepPlan,
-};
-pub use error::{DeckError, DeckErrorKind};
-pub use expr::{AngleUnit, ExprError, MAX_DEPTH, evaluate};
-pub use model::{
+pub use crate::apdl::{
     AnalysisType, CoordinateSystem, Deck, DofLabel, DofRange, Element, ElementName, ElementRole,
     ElementType, ForceLabel, InitialCondition, JoinTable, JointLoad, JointMotion, JointSection,
     JointSubtype, LoadRamp, LoadStep, MotionKind, NodalConstraint, NodalForce, Node, NodeAxis,
     Note, RealConstants, RigidRegion, SpotweldCenter, Substeps, TimeIncrement,
 };
-pub use parse::{parse_file, parse_str};
+pub use crate::apdl::{AngleUnit, DeckError, DeckErrorKind, ExprError, MAX_DEPTH, evaluate};
+pub use crate::apdl::{parse_file, parse_str};
+pub use build::{
+    BuildOptions, DeckBody, DeckJoint, DeckModel, FrictionData, POINT_MASS_INERTIA, StepPlan,
+};

@@ -13,7 +13,7 @@ use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
-use crate::deck::expr::AngleUnit;
+use super::expr::AngleUnit;
 
 /// A whole APDL deck as read by [`crate::deck::parse_str`].
 ///

@@ -1,6 +1,6 @@
 //! Errors of the deck reader: every error names the file, the line and the command.
 
-use crate::deck::model::JointSubtype;
+use super::model::JointSubtype;
 
 /// A deck that could not be read, with where and why.
 ///

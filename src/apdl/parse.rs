@@ -3,9 +3,9 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use crate::deck::error::{DeckError, DeckErrorKind};
-use crate::deck::expr::{AngleUnit, ExprError, MAX_DEPTH, evaluate};
-use crate::deck::model::{
+use super::error::{DeckError, DeckErrorKind};
+use super::expr::{AngleUnit, ExprError, MAX_DEPTH, evaluate};
+use super::model::{
     AnalysisType, CoordinateSystem, Deck, DofLabel, DofRange, Element, ElementName, ElementType,
     ForceLabel, InitialCondition, JoinTable, JointLoad, JointMotion, JointSection, JointSubtype,
     LoadRamp, LoadStep, NodalConstraint, NodalForce, Node, NodeAxis, Note, RealConstants,
