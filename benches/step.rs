@@ -26,9 +26,9 @@ use std::hint::black_box;
 use std::time::Duration;
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use rapier3d_mpc184::benchmarks::{self, CHAIN_LINK_LENGTH, CHAIN_LINK_MASS};
 use rapier3d_mpc184::math::rapier::dynamics::{MassProperties, RigidBodyBuilder};
 use rapier3d_mpc184::prelude::*;
+use rapier3d_mpc184::studies::benchmarks::{self, CHAIN_LINK_LENGTH, CHAIN_LINK_MASS};
 
 const BACKENDS: [Backend; 3] = [
     Backend::Lagrange,

@@ -16,7 +16,7 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 use rapier3d_mpc184::prelude::*;
-use rapier3d_mpc184::scenes::{self, G};
+use rapier3d_mpc184::studies::scenes::{self, G};
 
 const HELP: &str = "a01_long: IFToMM A01 pendulum over 2000 s at high precision (1e-3 m)
 

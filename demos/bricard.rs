@@ -24,8 +24,8 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 use common::{Args, Csv, RunResult};
-use rapier3d_mpc184::benchmarks;
 use rapier3d_mpc184::prelude::*;
+use rapier3d_mpc184::studies::benchmarks;
 
 const HELP: &str = "bricard: IFToMM A04, Bricard's overconstrained mechanism
 

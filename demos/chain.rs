@@ -20,8 +20,8 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 use common::{Args, Csv, RunResult};
-use rapier3d_mpc184::benchmarks::{self, CHAIN_LINK_LENGTH, CHAIN_LINK_MASS};
 use rapier3d_mpc184::prelude::*;
+use rapier3d_mpc184::studies::benchmarks::{self, CHAIN_LINK_LENGTH, CHAIN_LINK_MASS};
 
 const HELP: &str = "chain: a hanging revolute chain with a heavy end bead
 

@@ -60,9 +60,9 @@ use std::time::Instant;
 
 use plotters::coord::Shift;
 use plotters::prelude::*;
-use rapier3d_mpc184::benchmarks::{self, Benchmark, Probe, RodSliderJoint};
 use rapier3d_mpc184::prelude::*;
-use rapier3d_mpc184::scenes::{self, G};
+use rapier3d_mpc184::studies::benchmarks::{self, Benchmark, Probe, RodSliderJoint};
+use rapier3d_mpc184::studies::scenes::{self, G};
 
 type DynResult<T> = Result<T, Box<dyn Error>>;
 

@@ -31,10 +31,10 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 use common::{Args, Csv, RunResult};
-use rapier3d_mpc184::benchmarks::{self, BEAD_GYRATION_SQUARED, Benchmark};
 use rapier3d_mpc184::math::PI;
 use rapier3d_mpc184::prelude::*;
-use rapier3d_mpc184::scenes::G;
+use rapier3d_mpc184::studies::benchmarks::{self, BEAD_GYRATION_SQUARED, Benchmark};
+use rapier3d_mpc184::studies::scenes::G;
 
 const HELP: &str = "double_pendulum: two 1 m links with 1 kg beads released horizontally (chaotic)
 

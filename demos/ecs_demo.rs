@@ -25,7 +25,7 @@ use common::{Args, Csv, RunResult};
 use rapier3d_mpc184::ecs::*;
 use rapier3d_mpc184::math::PI;
 use rapier3d_mpc184::prelude::*;
-use rapier3d_mpc184::scenes::G;
+use rapier3d_mpc184::studies::scenes::G;
 
 const HELP: &str = "ecs_demo: a pendulum and a two-link chain as bevy_ecs entities (Mpc184Plugin)
 

@@ -24,9 +24,9 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 use common::{Args, Csv, RunResult};
-use rapier3d_mpc184::benchmarks;
 use rapier3d_mpc184::math::PI;
 use rapier3d_mpc184::prelude::*;
+use rapier3d_mpc184::studies::benchmarks;
 
 const HELP: &str =
     "four_bar: the parallelogram four-bar (IFToMM A02) through its singular positions

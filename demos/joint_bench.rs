@@ -9,9 +9,9 @@
 
 use std::time::Instant;
 
-use rapier3d_mpc184::benchmarks::{self, Benchmark};
-use rapier3d_mpc184::metrics::pendulum_study_with;
 use rapier3d_mpc184::prelude::*;
+use rapier3d_mpc184::studies::benchmarks::{self, Benchmark};
+use rapier3d_mpc184::studies::metrics::pendulum_study_with;
 
 const BACKENDS: [Backend; 3] = [
     Backend::Lagrange,

@@ -8,7 +8,7 @@ use std::io::Write;
 use std::process::ExitCode;
 
 use rapier3d_mpc184::prelude::*;
-use rapier3d_mpc184::scenes::{self, G};
+use rapier3d_mpc184::studies::scenes::{self, G};
 
 const HELP: &str = "pendulum: a revolute pendulum on a Rapier backend, printed and written as CSV
 

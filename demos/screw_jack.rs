@@ -42,7 +42,7 @@ use std::process::ExitCode;
 use common::{Args, Csv, RunResult};
 use rapier3d_mpc184::math::rapier::prelude::{MassProperties, RigidBodyBuilder};
 use rapier3d_mpc184::prelude::*;
-use rapier3d_mpc184::scenes::G;
+use rapier3d_mpc184::studies::scenes::G;
 
 const HELP: &str =
     "screw_jack: a vertical screw joint with thread friction, raised and lowered by a moment

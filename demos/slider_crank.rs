@@ -29,8 +29,8 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 use common::{Args, Csv, RunResult};
-use rapier3d_mpc184::benchmarks::{self, RodSliderJoint};
 use rapier3d_mpc184::prelude::*;
+use rapier3d_mpc184::studies::benchmarks::{self, RodSliderJoint};
 
 const HELP: &str = "slider_crank: the IFToMM spatial slider-crank, free and with a driven crank
 

@@ -10,7 +10,6 @@
 // 5. the facade (world);
 // 6. the deck reader (deck), the ECS plugin (ecs), the benchmark study (studies).
 pub mod behaviour;
-pub mod benchmarks;
 pub mod catalogue;
 pub mod deck;
 pub mod divergence;
@@ -22,16 +21,15 @@ pub mod error;
 pub mod joint;
 pub mod kinematics;
 pub mod math;
-pub mod metrics;
 pub mod output;
 pub mod rows;
-pub mod scenes;
 pub mod settings;
 #[cfg(feature = "serde-snapshot")]
 pub mod snapshot;
 #[doc(hidden)]
 pub mod solver;
 pub mod statics;
+pub mod studies;
 pub mod world;
 
 pub(crate) mod apdl;
@@ -44,6 +42,8 @@ pub use backend::lower;
 pub use divergence::DivergenceLimits;
 pub use error::{Error, JointId};
 pub use joint::Mpc184Joint;
+#[doc(hidden)]
+pub use studies::{benchmarks, metrics, scenes};
 pub use world::Mpc184World;
 
 /// The Lagrange backend's public constants and diagnostics (the solver itself is internal).

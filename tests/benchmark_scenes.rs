@@ -1,4 +1,4 @@
-//! The benchmark scene builders of `rapier3d_mpc184::benchmarks`: geometry, mobility, initial
+//! The benchmark scene builders of `rapier3d_mpc184::studies::benchmarks`: geometry, mobility, initial
 //! energy and a first step.
 //!
 //! Checked for each scene (chain, A02 parallelogram four-bar, A04 Bricard, IFToMM slider-crank):
@@ -24,11 +24,11 @@
 //! smallest accepted pivot is asserted to be above 1e-3 (a clear gap, stated with the test).
 #![cfg(feature = "f64")]
 
-use rapier3d_mpc184::benchmarks::{self, Benchmark, RodSliderJoint};
 use rapier3d_mpc184::math::rapier::dynamics::RigidBodyHandle;
 use rapier3d_mpc184::math::{Matrix, Pose};
 use rapier3d_mpc184::prelude::*;
 use rapier3d_mpc184::rows::{self, FramePair, RowKind};
+use rapier3d_mpc184::studies::benchmarks::{self, Benchmark, RodSliderJoint};
 
 const G: Real = 9.81;
 

@@ -18,8 +18,8 @@
 use std::path::PathBuf;
 
 use rapier3d_mpc184::deck::{BuildOptions, DeckModel, parse_file};
-use rapier3d_mpc184::metrics::pendulum_period;
 use rapier3d_mpc184::prelude::*;
+use rapier3d_mpc184::studies::metrics::pendulum_period;
 
 const G: f64 = 9.81;
 const L: f64 = 1.0;

@@ -20,8 +20,8 @@
 use std::path::PathBuf;
 
 use rapier3d_mpc184::deck::{BuildOptions, DeckModel, parse_file, parse_str};
-use rapier3d_mpc184::metrics::pendulum_period;
 use rapier3d_mpc184::prelude::*;
+use rapier3d_mpc184::studies::metrics::pendulum_period;
 
 const G: f64 = 9.81;
 

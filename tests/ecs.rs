@@ -8,7 +8,7 @@ use bevy_ecs::prelude::*;
 use bevy_ecs::schedule::{LogLevel, ScheduleBuildSettings};
 use rapier3d_mpc184::ecs::*;
 use rapier3d_mpc184::prelude::*;
-use rapier3d_mpc184::scenes;
+use rapier3d_mpc184::studies::scenes;
 
 fn spawn_pendulum(world: &mut World) -> (Entity, Entity) {
     let theta0 = 60f64.to_radians() as Real;

@@ -8,8 +8,8 @@
 //! tension at the bottom within 2 % as in f64.
 #![cfg(feature = "f32")]
 
-use rapier3d_mpc184::metrics::pendulum_study;
 use rapier3d_mpc184::prelude::*;
+use rapier3d_mpc184::studies::metrics::pendulum_study;
 
 #[test]
 fn f32_pendulum_matches_the_f64_figures() {

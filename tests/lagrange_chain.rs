@@ -13,8 +13,8 @@
 //! stability check; the 10 s secular drift is reported by `joint_bench`).
 #![cfg(feature = "f64")]
 
-use rapier3d_mpc184::benchmarks;
 use rapier3d_mpc184::prelude::*;
+use rapier3d_mpc184::studies::benchmarks;
 
 #[test]
 fn heavy_ended_chain_is_stable_at_four_substeps() {

@@ -16,9 +16,9 @@
 //!   <= 1e-3 of the largest kinetic energy over the run.
 #![cfg(feature = "f64")]
 
-use rapier3d_mpc184::benchmarks;
 use rapier3d_mpc184::kinematics::AngleUnwrap;
 use rapier3d_mpc184::prelude::*;
+use rapier3d_mpc184::studies::benchmarks;
 
 #[test]
 fn bricard_mechanism_keeps_moving_with_its_redundant_constraint() {

@@ -12,9 +12,9 @@
 //!   the tension is stationary at the bottom, so its variation there is O(h^2) ~ 1e-5.
 #![cfg(feature = "f64")]
 
-use rapier3d_mpc184::metrics::pendulum_study;
 use rapier3d_mpc184::prelude::*;
-use rapier3d_mpc184::scenes::{self, G};
+use rapier3d_mpc184::studies::metrics::pendulum_study;
+use rapier3d_mpc184::studies::scenes::{self, G};
 
 #[test]
 fn lagrange_pendulum_conserves_energy_and_period() {

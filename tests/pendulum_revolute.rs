@@ -29,8 +29,8 @@
 //! (`tests/f32_smoke.rs` covers the f32 build).
 #![cfg(feature = "f64")]
 
-use rapier3d_mpc184::metrics::{PendulumReport, pendulum_study};
 use rapier3d_mpc184::prelude::*;
+use rapier3d_mpc184::studies::metrics::{PendulumReport, pendulum_study};
 
 fn run(backend: Backend, axis: Axis, theta0_deg: Real) -> PendulumReport {
     let r = pendulum_study(backend, axis, theta0_deg.to_radians(), 1.0 / 60.0, 4, 20.0).unwrap();

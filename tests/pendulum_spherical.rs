@@ -19,7 +19,7 @@
 #![cfg(feature = "f64")]
 
 use rapier3d_mpc184::prelude::*;
-use rapier3d_mpc184::scenes::{self, G};
+use rapier3d_mpc184::studies::scenes::{self, G};
 
 fn precession(backend: Backend) -> (Real, Real, Real) {
     let (l, alpha) = (1.0, 30.0_f64.to_radians() as Real);

@@ -13,9 +13,9 @@
 //! 8.3e-3 m at N = 640: 55 times RATTLE's), which is what the second-order option removes.
 #![cfg(feature = "f64")]
 
-use rapier3d_mpc184::metrics::pendulum_period;
 use rapier3d_mpc184::prelude::*;
-use rapier3d_mpc184::scenes::{self, G};
+use rapier3d_mpc184::studies::metrics::pendulum_period;
+use rapier3d_mpc184::studies::scenes::{self, G};
 
 /// The exact angle and rate of the pendulum at `t` (RK4 of `I_p theta'' = -m g L sin(theta)`
 /// with 20000 steps per period: its error, ~(T / 20000)^4, is below 1e-14).

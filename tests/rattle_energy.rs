@@ -8,8 +8,8 @@
 //! difference between the sampled and the exact crossing).
 #![cfg(feature = "f64")]
 
-use rapier3d_mpc184::metrics::pendulum_study_with;
 use rapier3d_mpc184::prelude::*;
+use rapier3d_mpc184::studies::metrics::pendulum_study_with;
 
 #[test]
 fn rattle_energy_oscillation_is_second_order_small() {

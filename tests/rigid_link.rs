@@ -25,8 +25,10 @@
 #![cfg(feature = "f64")]
 
 use rapier3d_mpc184::math::rapier::prelude::{MassProperties, RigidBodyBuilder, RigidBodyHandle};
-use rapier3d_mpc184::metrics::{mean_period, pendulum_period, secular_drift, upward_crossings};
 use rapier3d_mpc184::prelude::*;
+use rapier3d_mpc184::studies::metrics::{
+    mean_period, pendulum_period, secular_drift, upward_crossings,
+};
 
 const G: Real = 9.81;
 const L: Real = 1.0;

@@ -18,7 +18,7 @@
 
 use rapier3d_mpc184::math::rapier::prelude::{MassProperties, RigidBodyBuilder};
 use rapier3d_mpc184::prelude::*;
-use rapier3d_mpc184::scenes::G;
+use rapier3d_mpc184::studies::scenes::G;
 
 #[test]
 fn nut_falls_down_the_screw_at_the_coupled_acceleration() {

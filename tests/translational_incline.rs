@@ -13,7 +13,7 @@
 #![cfg(feature = "f64")]
 
 use rapier3d_mpc184::prelude::*;
-use rapier3d_mpc184::scenes::{self, G};
+use rapier3d_mpc184::studies::scenes::{self, G};
 
 #[test]
 fn block_slides_down_the_incline_at_g_sin_alpha() {

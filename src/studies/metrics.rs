@@ -134,9 +134,9 @@ pub fn pendulum_study_with(
     substeps: usize,
     duration: Real,
 ) -> Result<PendulumReport, crate::error::Error> {
+    use super::scenes::{self, G};
     use crate::catalogue::Axis;
     use crate::dof::Dof;
-    use crate::scenes::{self, G};
     use crate::world::WorldSettings;
     let h = dt / substeps as Real;
     let settings = WorldSettings {

@@ -21,12 +21,12 @@
 //! Potential energy is zero at the origin (`-m g . x_com`), as in
 //! [`Mpc184World::potential_energy`]. SI units throughout.
 
+use super::scenes::G;
 use crate::catalogue::{Axis, JointKind};
 use crate::error::{Error, JointId};
 use crate::joint::Mpc184Joint;
 use crate::math::rapier::dynamics::{MassProperties, RigidBodyBuilder, RigidBodyHandle};
 use crate::math::{Matrix, Pose, Real, Rotation, Vector};
-use crate::scenes::G;
 use crate::world::{Mpc184World, WorldSettings};
 
 /// Default chain link length `a` (m).
