@@ -380,7 +380,52 @@ impl Reader {
         self.unsupported(format!("command `{name}`"), hint)
     }
 
+    /// Runs one command (upper case, spelled out).
     fn dispatch(&mut self, cmd: &str) -> Res<()> {
+        match cmd {
+            "/PREP7" | "/SOLU" | "FINISH" | "/COM" | "/TITLE" | "/CLEAR" | "/EOF" | "/OUTPUT"
+            | "OUTRES" | "/NOPR" | "/GOPR" | "/BATCH" | "ALLSEL" | "NLGEOM" | "TINTP"
+            | "TRNOPT" | "*SET" | "*AFUN" => self.session(cmd),
+            "ET" => self.et(),
+            "KEYOPT" => self.keyopt(),
+            "TYPE" | "REAL" | "MAT" | "SECNUM" => self.pointer(cmd),
+            "R" => self.real(),
+            "RMORE" => self.rmore(),
+            "N" => self.node(),
+            "E" => self.element(None, 1),
+            "EN" => {
+                let id = self.required_id(1, "IEL")?;
+                self.element(Some(id), 2)
+            }
+            "CERIG" => self.cerig(),
+            "SECTYPE" => self.sectype(),
+            "SECJOINT" => self.secjoint(),
+            "SECSTOP" | "SECLOCK" => self.secstop(cmd == "SECLOCK"),
+            "SECDATA" => self.secdata(),
+            "LOCAL" => self.local(),
+            "CSYS" => self.csys(),
+            "TB" => self.tb(),
+            "TBTEMP" => self.tbtemp(),
+            "TBDATA" => self.tbdata(),
+            "TBPT" => self.tbpt(),
+            "D" | "F" | "IC" => self.nodal_load(cmd),
+            "DDELE" | "FDELE" => self.nodal_delete(cmd == "DDELE"),
+            "DJ" | "FJ" => self.joint_load(cmd == "DJ"),
+            "DJDELE" | "FJDELE" => self.joint_delete(cmd == "DJDELE"),
+            "ACEL" => {
+                self.loads.acel = [self.num0(1)?, self.num0(2)?, self.num0(3)?];
+                self.touched();
+                Ok(())
+            }
+            "ANTYPE" => self.antype(),
+            "TIME" | "DELTIM" | "NSUBST" | "KBC" => self.time_stepping(cmd),
+            "SOLVE" => self.solve(),
+            _ => Err(self.unknown_command(cmd)),
+        }
+    }
+
+    /// Session commands: accepted, noted and ignored, or parameters (`*SET`, `*AFUN`).
+    fn session(&mut self, cmd: &str) -> Res<()> {
         match cmd {
             "/PREP7" | "/SOLU" | "FINISH" | "/COM" | "/TITLE" => Ok(()),
             "/CLEAR" => {
@@ -438,8 +483,13 @@ impl Reader {
                 }
                 Ok(())
             }
-            "ET" => self.et(),
-            "KEYOPT" => self.keyopt(),
+            _ => Err(self.unknown_command(cmd)),
+        }
+    }
+
+    /// The pointers new elements take (`TYPE`, `REAL`, `MAT`, `SECNUM`).
+    fn pointer(&mut self, cmd: &str) -> Res<()> {
+        match cmd {
             "TYPE" => {
                 self.type_ptr = self.id(1)?.unwrap_or(1);
                 Ok(())
@@ -456,35 +506,13 @@ impl Reader {
                 self.sec_ptr = self.id(1)?.unwrap_or(1);
                 Ok(())
             }
-            "R" => self.real(),
-            "RMORE" => self.rmore(),
-            "N" => self.node(),
-            "E" => self.element(None, 1),
-            "EN" => {
-                let id = self.required_id(1, "IEL")?;
-                self.element(Some(id), 2)
-            }
-            "CERIG" => self.cerig(),
-            "SECTYPE" => self.sectype(),
-            "SECJOINT" => self.secjoint(),
-            "SECSTOP" | "SECLOCK" => self.secstop(cmd == "SECLOCK"),
-            "SECDATA" => self.secdata(),
-            "LOCAL" => self.local(),
-            "CSYS" => self.csys(),
-            "TB" => self.tb(),
-            "TBTEMP" => self.tbtemp(),
-            "TBDATA" => self.tbdata(),
-            "TBPT" => self.tbpt(),
-            "D" | "F" | "IC" => self.nodal_load(cmd),
-            "DDELE" | "FDELE" => self.nodal_delete(cmd == "DDELE"),
-            "DJ" | "FJ" => self.joint_load(cmd == "DJ"),
-            "DJDELE" | "FJDELE" => self.joint_delete(cmd == "DJDELE"),
-            "ACEL" => {
-                self.loads.acel = [self.num0(1)?, self.num0(2)?, self.num0(3)?];
-                self.touched();
-                Ok(())
-            }
-            "ANTYPE" => self.antype(),
+            _ => Err(self.unknown_command(cmd)),
+        }
+    }
+
+    /// The load step's time stepping (`TIME`, `DELTIM`, `NSUBST`, `KBC`).
+    fn time_stepping(&mut self, cmd: &str) -> Res<()> {
+        match cmd {
             "TIME" => {
                 let t = self.required(1, "TIME")?;
                 if t <= 0.0 {
@@ -518,7 +546,6 @@ impl Reader {
                 };
                 Ok(())
             }
-            "SOLVE" => self.solve(),
             _ => Err(self.unknown_command(cmd)),
         }
     }
