@@ -426,6 +426,17 @@ impl Behaviour {
                     .into(),
             ));
         }
+        self.validate_limits(kind)?;
+        self.validate_genb(kind)?;
+        self.validate_laws(kind)?;
+        if let Some(f) = &self.friction {
+            f.validate(kind)?;
+        }
+        self.validate_references()
+    }
+
+    /// Stops and locks: on free DOFs, `min <= max`.
+    fn validate_limits(&self, kind: &JointKind) -> Result<(), (&'static str, String)> {
         let free = kind.free();
         for (field, limits) in [("SECSTOP", &self.stops), ("SECLOCK", &self.locks)] {
             for l in limits.iter() {
@@ -453,6 +464,11 @@ impl Behaviour {
                 }
             }
         }
+        Ok(())
+    }
+
+    /// Nothing on a genb joint's rotations (its 3-1-3 angles are singular at the aligned start).
+    fn validate_genb(&self, kind: &JointKind) -> Result<(), (&'static str, String)> {
         if matches!(kind, JointKind::Genb { .. }) {
             let on_rotation = self
                 .stops
@@ -474,6 +490,13 @@ impl Behaviour {
                 ));
             }
         }
+        Ok(())
+    }
+
+    /// Springs and dampers: finite constants, valid tables on free DOFs, no component both
+    /// linear and nonlinear.
+    fn validate_laws(&self, kind: &JointKind) -> Result<(), (&'static str, String)> {
+        let free = kind.free();
         for (field, m) in [("STIF", &self.stiffness), ("DAMP", &self.damping)] {
             if let Some(m) = m
                 && m.0.iter().any(|v| !v.is_finite())
@@ -516,58 +539,11 @@ impl Behaviour {
                 }
             }
         }
-        if let Some(f) = &self.friction {
-            if Friction::dofs(kind).is_none() {
-                return Err((
-                    "FRIC",
-                    format!(
-                        "a {} joint takes no friction (revolute, slot, translational, spherical \
-                         and screw do)",
-                        kind.name()
-                    ),
-                ));
-            }
-            let bad = match &f.law {
-                FrictionLaw::Coulomb(mu) => !(mu.is_finite() && *mu >= 0.0),
-                FrictionLaw::CoulombTable(t) => {
-                    t.validate()
-                        .map_err(|e| ("MUS", format!("MUS table: {e}")))?;
-                    t.points.iter().any(|p| p.1 < 0.0)
-                }
-                FrictionLaw::Exponential { mu_s, mu_d, c } => {
-                    !(mu_s.is_finite() && mu_d.is_finite() && c.is_finite())
-                        || *mu_s < 0.0
-                        || *mu_d < 0.0
-                        || *c < 0.0
-                }
-            };
-            if bad {
-                return Err((
-                    "MUS",
-                    "friction coefficients must be finite and >= 0".into(),
-                ));
-            }
-            if f.geometry
-                .iter()
-                .flatten()
-                .any(|x| !(x.is_finite() && *x >= 0.0))
-                || !f.interference.is_finite()
-                || f.max_force.is_some_and(|x| x.is_nan() || x < 0.0)
-            {
-                return Err((
-                    "FRIC",
-                    "geometry, FI and TMX must be finite and >= 0".into(),
-                ));
-            }
-            if matches!(kind, JointKind::Screw { .. }) && f.geometry[0].is_none_or(|r| r <= 0.0) {
-                return Err((
-                    "FRIC",
-                    "a screw with friction needs the mean thread radius (SECJOINT,FRIC first \
-                     value)"
-                        .into(),
-                ));
-            }
-        }
+        Ok(())
+    }
+
+    /// `SECDATA` references are finite.
+    fn validate_references(&self) -> Result<(), (&'static str, String)> {
         if let Some((k, v)) = self
             .reference
             .iter()
@@ -577,6 +553,64 @@ impl Behaviour {
             return Err((
                 "SECDATA",
                 format!("reference {} is {v}", Dof::ALL[k].label()),
+            ));
+        }
+        Ok(())
+    }
+}
+
+impl Friction {
+    /// Checks the friction data against the joint kind (see [`Behaviour::validate`]).
+    fn validate(&self, kind: &JointKind) -> Result<(), (&'static str, String)> {
+        if Friction::dofs(kind).is_none() {
+            return Err((
+                "FRIC",
+                format!(
+                    "a {} joint takes no friction (revolute, slot, translational, spherical \
+                         and screw do)",
+                    kind.name()
+                ),
+            ));
+        }
+        let bad = match &self.law {
+            FrictionLaw::Coulomb(mu) => !(mu.is_finite() && *mu >= 0.0),
+            FrictionLaw::CoulombTable(t) => {
+                t.validate()
+                    .map_err(|e| ("MUS", format!("MUS table: {e}")))?;
+                t.points.iter().any(|p| p.1 < 0.0)
+            }
+            FrictionLaw::Exponential { mu_s, mu_d, c } => {
+                !(mu_s.is_finite() && mu_d.is_finite() && c.is_finite())
+                    || *mu_s < 0.0
+                    || *mu_d < 0.0
+                    || *c < 0.0
+            }
+        };
+        if bad {
+            return Err((
+                "MUS",
+                "friction coefficients must be finite and >= 0".into(),
+            ));
+        }
+        if self
+            .geometry
+            .iter()
+            .flatten()
+            .any(|x| !(x.is_finite() && *x >= 0.0))
+            || !self.interference.is_finite()
+            || self.max_force.is_some_and(|x| x.is_nan() || x < 0.0)
+        {
+            return Err((
+                "FRIC",
+                "geometry, FI and TMX must be finite and >= 0".into(),
+            ));
+        }
+        if matches!(kind, JointKind::Screw { .. }) && self.geometry[0].is_none_or(|r| r <= 0.0) {
+            return Err((
+                "FRIC",
+                "a screw with friction needs the mean thread radius (SECJOINT,FRIC first \
+                     value)"
+                    .into(),
             ));
         }
         Ok(())

@@ -26,8 +26,6 @@ pub mod rows;
 pub mod settings;
 #[cfg(feature = "serde-snapshot")]
 pub mod snapshot;
-#[doc(hidden)]
-pub mod solver;
 pub mod statics;
 pub mod studies;
 pub mod world;
@@ -36,6 +34,7 @@ pub(crate) mod apdl;
 pub(crate) mod backend;
 pub(crate) mod body;
 pub(crate) mod joint_set;
+pub(crate) mod solver;
 pub(crate) mod validate;
 
 pub use backend::lower;

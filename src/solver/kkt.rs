@@ -44,7 +44,7 @@
 //! row is dropped from the system and its multiplier is zero. Since the pivot is the largest
 //! remaining one, all remaining rows of the block are then dropped too. The default `tol` is
 //! `2 Real::EPSILON^(2/3)` (about `7e-11` in `f64`, `5e-5` in `f32`), see
-//! [`KktSolver::set_redundancy_tolerance`].
+//! [`KktSolver::default_redundancy_tolerance`].
 //!
 //! Dropping is exact for consistent right-hand sides: `x` is unchanged and the multipliers of the
 //! dropped rows are carried by the rows they depend on (a basic solution: the dropped multipliers
@@ -363,11 +363,6 @@ pub struct KktSolver {
     blocks: Vec<Block>,
     ops: Vec<PairOp>,
     jac_targets: Vec<[Option<JacTarget>; 2]>,
-    /// Pivot index of each body.
-    body_pivot: Vec<usize>,
-    /// Pivot index of each joint (`usize::MAX` for joints without rows).
-    joint_pivot: Vec<usize>,
-    incidences: usize,
     diag: Vec<Real>,
     scale: Vec<Real>,
     /// Off-diagonal blocks `Wᵀ`, replaced by `Y = L⁻¹ Π Wᵀ` when their pivot is factored.
@@ -385,41 +380,22 @@ pub struct KktSolver {
     factored: bool,
 }
 
-impl KktSolver {
-    /// Symbolic phase: elimination order and fill pattern for `nb` bodies and the given joints.
-    /// Call it only when the topology changes.
-    ///
-    /// # Errors
-    /// [`KktError::InvalidJoint`] if a joint has more than [`MAX_JOINT_ROWS`] rows or a body index
-    /// `>= nb`.
-    pub fn new(nb: usize, joints: &[JointBlockSpec]) -> Result<Self, KktError> {
+/// The elimination game of [`KktSolver::new`] on the graph whose nodes are the bodies and the
+/// joints with rows and whose edges are the joint–body incidences: the order (nodes, bodies
+/// `0..nb` then joints `nb + k`) and each eliminated node's neighbours at its elimination.
+struct Game {
+    order: Vec<usize>,
+    nbr_lists: Vec<Vec<usize>>,
+}
+
+impl Game {
+    /// Plays the game: the eligible node of least degree first (a joint is eligible once it
+    /// has no body left or a body that was a leaf hung from it, see the module docs).
+    fn play(nb: usize, joints: &[JointBlockSpec]) -> Game {
         let nj = joints.len();
-        for (k, s) in joints.iter().enumerate() {
-            if s.rows > MAX_JOINT_ROWS || s.bodies.iter().flatten().any(|&b| b >= nb) {
-                return Err(KktError::InvalidJoint { joint: k });
-            }
-        }
-        let mut row_off = Vec::with_capacity(nj + 1);
-        let mut acc = 0;
-        for s in joints {
-            row_off.push(acc);
-            acc += s.rows;
-        }
-        row_off.push(acc);
-
         let n_nodes = nb + nj;
-        let dim = |v: usize| {
-            if v < nb {
-                BODY_DOFS
-            } else {
-                joints[v - nb].rows
-            }
-        };
         let active = |v: usize| v < nb || joints[v - nb].rows > 0;
-
-        // Elimination game.
         let mut adj: Vec<BTreeSet<usize>> = vec![BTreeSet::new(); n_nodes];
-        let mut incidences = 0;
         for (k, s) in joints.iter().enumerate() {
             if s.rows == 0 {
                 continue;
@@ -427,7 +403,6 @@ impl KktSolver {
             for &b in s.bodies.iter().flatten() {
                 if adj[nb + k].insert(b) {
                     adj[b].insert(nb + k);
-                    incidences += 1;
                 }
             }
         }
@@ -484,10 +459,37 @@ impl KktSolver {
             order.push(p);
             nbr_lists.push(nbrs);
         }
+        Game { order, nbr_lists }
+    }
+}
 
-        // Numbering and storage.
-        let mut pos = vec![usize::MAX; n_nodes];
-        for (t, &v) in order.iter().enumerate() {
+/// The numbering and storage that follow from the elimination order.
+struct Layout {
+    pivots: Vec<Pivot>,
+    blocks: Vec<Block>,
+    /// (eliminated node, neighbour) -> its off-diagonal block.
+    edge: HashMap<(usize, usize), usize>,
+    /// Each node's position in the order (`usize::MAX` for joints without rows).
+    pos: Vec<usize>,
+    /// Each pivot's neighbours at its elimination, by elimination position.
+    nbrs: Vec<Vec<usize>>,
+    diag_len: usize,
+    scale_len: usize,
+    offd_len: usize,
+}
+
+impl Layout {
+    /// Pivots and off-diagonal blocks, each neighbour list sorted by elimination position.
+    fn new(nb: usize, joints: &[JointBlockSpec], row_off: &[usize], game: &Game) -> Layout {
+        let dim = |v: usize| {
+            if v < nb {
+                BODY_DOFS
+            } else {
+                joints[v - nb].rows
+            }
+        };
+        let mut pos = vec![usize::MAX; nb + joints.len()];
+        for (t, &v) in game.order.iter().enumerate() {
             pos[v] = t;
         }
         let rhs_of = |v: usize| {
@@ -503,63 +505,87 @@ impl KktSolver {
                 }
             }
         };
-        let mut pivots = Vec::with_capacity(order.len());
-        let mut blocks = Vec::new();
-        let mut edge: HashMap<(usize, usize), usize> = HashMap::new();
-        let (mut diag_len, mut scale_len, mut offd_len) = (0, 0, 0);
-        for (t, &v) in order.iter().enumerate() {
+        let mut l = Layout {
+            pivots: Vec::with_capacity(game.order.len()),
+            blocks: Vec::new(),
+            edge: HashMap::new(),
+            pos: Vec::new(),
+            nbrs: Vec::with_capacity(game.order.len()),
+            diag_len: 0,
+            scale_len: 0,
+            offd_len: 0,
+        };
+        for (t, &v) in game.order.iter().enumerate() {
             let n = dim(v);
-            let nbrs = &mut nbr_lists[t];
+            let mut nbrs = game.nbr_lists[t].clone();
             nbrs.sort_unstable_by_key(|&j| pos[j]);
-            let blk_start = blocks.len();
-            for &j in nbrs.iter() {
-                edge.insert((v, j), blocks.len());
-                blocks.push(Block {
-                    off: offd_len,
+            let blk_start = l.blocks.len();
+            for &j in &nbrs {
+                l.edge.insert((v, j), l.blocks.len());
+                l.blocks.push(Block {
+                    off: l.offd_len,
                     rows: dim(j),
                     tgt: pos[j],
                     tgt_body: j < nb,
                     rhs: rhs_of(j),
                 });
-                offd_len += dim(j) * n;
+                l.offd_len += dim(j) * n;
             }
-            pivots.push(Pivot {
+            l.pivots.push(Pivot {
                 node: if v < nb {
                     KktNode::Body(v)
                 } else {
                     KktNode::Joint(v - nb)
                 },
                 dim: n,
-                diag_off: diag_len,
-                scale_off: scale_len,
+                diag_off: l.diag_len,
+                scale_off: l.scale_len,
                 rhs: rhs_of(v),
                 blk_start,
-                blk_end: blocks.len(),
+                blk_end: l.blocks.len(),
                 op_start: 0,
                 op_end: 0,
             });
-            diag_len += tri(n);
-            scale_len += n;
+            l.diag_len += tri(n);
+            l.scale_len += n;
+            l.nbrs.push(nbrs);
         }
+        l.pos = pos;
+        l
+    }
+
+    /// The Schur updates of each pivot: for every pair of its neighbours `j` before `k`, the
+    /// block `(j, k)` gets `-Y_k^T Y_j`. Sets each pivot's range of them.
+    fn pair_ops(&mut self, game: &Game) -> Vec<PairOp> {
         let mut ops = Vec::new();
-        for (t, &v) in order.iter().enumerate() {
-            let nbrs = &nbr_lists[t];
+        for (t, &v) in game.order.iter().enumerate() {
+            let nbrs = &self.nbrs[t];
             let start = ops.len();
             for (a, &j) in nbrs.iter().enumerate() {
                 for &k in &nbrs[a + 1..] {
                     ops.push(PairOp {
-                        k_blk: edge[&(v, k)],
-                        j_blk: edge[&(v, j)],
+                        k_blk: self.edge[&(v, k)],
+                        j_blk: self.edge[&(v, j)],
                         // `j` and `k` are adjacent from `v`'s elimination on and `j` goes first.
-                        dst_blk: edge[&(j, k)],
+                        dst_blk: self.edge[&(j, k)],
                     });
                 }
             }
-            pivots[t].op_start = start;
-            pivots[t].op_end = ops.len();
+            self.pivots[t].op_start = start;
+            self.pivots[t].op_end = ops.len();
         }
-        let mut jac_targets = vec![[None; 2]; nj];
-        let mut written = vec![false; blocks.len()];
+        ops
+    }
+
+    /// Where each joint's Jacobian slots go (the block between the joint and its body, in the
+    /// direction of elimination), and which blocks a Jacobian writes.
+    fn jacobian_targets(
+        &self,
+        nb: usize,
+        joints: &[JointBlockSpec],
+    ) -> (Vec<[Option<JacTarget>; 2]>, Vec<bool>) {
+        let mut jac_targets = vec![[None; 2]; joints.len()];
+        let mut written = vec![false; self.blocks.len()];
         for (k, s) in joints.iter().enumerate() {
             if s.rows == 0 {
                 continue;
@@ -567,15 +593,15 @@ impl KktSolver {
             let vj = nb + k;
             for (slot, body) in s.bodies.iter().enumerate() {
                 if let Some(b) = *body {
-                    let (first, second, transposed) = if pos[b] < pos[vj] {
+                    let (first, second, transposed) = if self.pos[b] < self.pos[vj] {
                         (b, vj, true)
                     } else {
                         (vj, b, false)
                     };
-                    let e = edge[&(first, second)];
+                    let e = self.edge[&(first, second)];
                     let add = std::mem::replace(&mut written[e], true);
                     jac_targets[k][slot] = Some(JacTarget {
-                        off: blocks[e].off,
+                        off: self.blocks[e].off,
                         blk: e,
                         transposed,
                         add,
@@ -583,8 +609,19 @@ impl KktSolver {
                 }
             }
         }
-        // Just-in-time assembly: a diagonal block before the first pivot that updates it (or
-        // its own), an off-diagonal block before its pivot or the first fill update into it.
+        (jac_targets, written)
+    }
+
+    /// Just-in-time assembly: a diagonal block before the first pivot that updates it (or its
+    /// own), an off-diagonal block before its pivot or the first fill update into it. Returns
+    /// the items bucketed by pivot and the buckets' starts.
+    fn assembly(
+        &self,
+        ops: &[PairOp],
+        jac_targets: &[[Option<JacTarget>; 2]],
+        written: &[bool],
+    ) -> (Vec<Assembly>, Vec<usize>) {
+        let (pivots, blocks) = (&self.pivots, &self.blocks);
         let np = pivots.len();
         let mut first_blk = vec![usize::MAX; blocks.len()];
         let mut first_diag: Vec<usize> = (0..np).collect();
@@ -613,7 +650,7 @@ impl KktSolver {
                 }
             }
         }
-        for pv in &pivots {
+        for pv in pivots {
             for (b, blk) in blocks
                 .iter()
                 .enumerate()
@@ -632,23 +669,78 @@ impl KktSolver {
             asm.extend(bucket);
         }
         asm_start.push(asm.len());
-        let body_pivot = (0..nb).map(|b| pos[b]).collect();
-        let joint_pivot = (0..nj).map(|k| pos[nb + k]).collect();
+        (asm, asm_start)
+    }
+}
+
+/// Inspection of the structure and of the last factorisation, for the tests.
+#[cfg(test)]
+impl KktSolver {
+    /// Number of stored off-diagonal blocks (joint–body incidences plus fill).
+    pub fn stored_offdiag_blocks(&self) -> usize {
+        self.blocks.len()
+    }
+
+    /// Number of fill blocks (stored off-diagonal blocks that are not joint–body incidences).
+    pub fn fill_blocks(&self) -> usize {
+        let incidences: usize = (self.specs.iter())
+            .filter(|s| s.rows > 0)
+            .map(|s| match s.bodies {
+                [Some(a), Some(b)] if a == b => 1,
+                bodies => bodies.iter().flatten().count(),
+            })
+            .sum();
+        self.blocks.len() - incidences
+    }
+
+    /// The elimination order.
+    pub fn elimination_order(&self) -> impl Iterator<Item = KktNode> + '_ {
+        self.pivots.iter().map(|p| p.node)
+    }
+
+    /// The rows dropped as redundant by the last factorisation.
+    pub fn dropped_rows(&self) -> &[DroppedRow] {
+        &self.dropped
+    }
+}
+
+impl KktSolver {
+    /// Symbolic phase: elimination order and fill pattern for `nb` bodies and the given joints.
+    /// Call it only when the topology changes.
+    ///
+    /// # Errors
+    /// [`KktError::InvalidJoint`] if a joint has more than [`MAX_JOINT_ROWS`] rows or a body index
+    /// `>= nb`.
+    pub fn new(nb: usize, joints: &[JointBlockSpec]) -> Result<Self, KktError> {
+        for (k, s) in joints.iter().enumerate() {
+            if s.rows > MAX_JOINT_ROWS || s.bodies.iter().flatten().any(|&b| b >= nb) {
+                return Err(KktError::InvalidJoint { joint: k });
+            }
+        }
+        let mut row_off = Vec::with_capacity(joints.len() + 1);
+        let mut acc = 0;
+        for s in joints {
+            row_off.push(acc);
+            acc += s.rows;
+        }
+        row_off.push(acc);
+        let game = Game::play(nb, joints);
+        let mut layout = Layout::new(nb, joints, &row_off, &game);
+        let ops = layout.pair_ops(&game);
+        let (jac_targets, written) = layout.jacobian_targets(nb, joints);
+        let (asm, asm_start) = layout.assembly(&ops, &jac_targets, &written);
         Ok(Self {
             nb,
             specs: joints.to_vec(),
             row_off,
-            pivots,
-            blocks,
+            pivots: layout.pivots,
+            blocks: layout.blocks,
             ops,
             jac_targets,
-            body_pivot,
-            joint_pivot,
-            incidences,
-            diag: vec![0.0; diag_len],
-            scale: vec![0.0; scale_len],
-            offd: vec![0.0; offd_len],
-            perms: vec![0; scale_len],
+            diag: vec![0.0; layout.diag_len],
+            scale: vec![0.0; layout.scale_len],
+            offd: vec![0.0; layout.offd_len],
+            perms: vec![0; layout.scale_len],
             asm,
             asm_start,
             dropped: Vec::new(),
@@ -660,19 +752,6 @@ impl KktSolver {
     /// The default relative tolerance of the redundancy test, `2 Real::EPSILON^(2/3)`.
     pub fn default_redundancy_tolerance() -> Real {
         2.0 * Real::EPSILON.powf(2.0 / 3.0)
-    }
-
-    /// The relative tolerance of the redundancy test.
-    pub fn redundancy_tolerance(&self) -> Real {
-        self.tol
-    }
-
-    /// Sets the relative tolerance of the redundancy test (a joint pivot `|d| <= tol * s` drops
-    /// its row). Non-finite or negative values are ignored.
-    pub fn set_redundancy_tolerance(&mut self, tol: Real) {
-        if tol.is_finite() && tol >= 0.0 {
-            self.tol = tol;
-        }
     }
 
     /// Number of bodies.
@@ -696,44 +775,9 @@ impl KktSolver {
         self.row_off[joint.min(self.specs.len())]
     }
 
-    /// Length of the Jacobian arena: [`JAC_ROW_STRIDE`]` * num_rows()`.
-    pub fn jacobian_len(&self) -> usize {
-        JAC_ROW_STRIDE * self.num_rows()
-    }
-
     /// The joint structure given to [`Self::new`].
     pub fn joint_specs(&self) -> &[JointBlockSpec] {
         &self.specs
-    }
-
-    /// Number of stored off-diagonal blocks (joint–body incidences plus fill).
-    pub fn stored_offdiag_blocks(&self) -> usize {
-        self.blocks.len()
-    }
-
-    /// Number of fill blocks (stored off-diagonal blocks that are not joint–body incidences).
-    pub fn fill_blocks(&self) -> usize {
-        self.blocks.len() - self.incidences
-    }
-
-    /// The elimination order.
-    pub fn elimination_order(&self) -> impl Iterator<Item = KktNode> + '_ {
-        self.pivots.iter().map(|p| p.node)
-    }
-
-    /// Position of a node in the elimination order (`None` for a joint without rows or an index
-    /// out of range).
-    pub fn elimination_position(&self, node: KktNode) -> Option<usize> {
-        let p = match node {
-            KktNode::Body(b) => *self.body_pivot.get(b)?,
-            KktNode::Joint(k) => *self.joint_pivot.get(k)?,
-        };
-        (p < self.pivots.len()).then_some(p)
-    }
-
-    /// The rows dropped as redundant by the last factorisation.
-    pub fn dropped_rows(&self) -> &[DroppedRow] {
-        &self.dropped
     }
 
     /// Numeric factorisation.
