@@ -90,9 +90,95 @@ fn run(o: Opts) -> RunResult {
     let half_pi = std::f64::consts::FRAC_PI_2 as Real;
     // Frame I: e1 along the closed door (global X), e3 the hinge axis (0, cos t, sin t).
     let axes = Rotation::from_rotation_x(tilt - half_pi);
-    let hinge = Vector::new(0.0, 1.0, 0.0);
     let settings = WorldSettings::default();
-    let mut world = Mpc184World::new(settings);
+    let (mut world, id) = door(&o, axes)?;
+    let e0 = world.energy().total;
+    println!(
+        "door {MASS} kg, {WIDTH} x {HEIGHT} m, hinge tilt {} deg, mu {}, stop [0, {OPEN_STOP_DEG}] deg, push {} N m for {} s{}, {} s at dt 1/60, 4 substeps",
+        o.tilt,
+        o.mu,
+        o.push,
+        o.pulse,
+        o.latch
+            .map_or(String::new(), |l| format!(", latch at {l} deg")),
+        o.secs
+    );
+    let mut csv = Csv::create(&o.out, "door_hinge.csv", &COLUMNS)?;
+    println!(
+        "\n{:<26} {:>7} {:>9} {:>9} {:>5} {:>6} {:>10} {:>10} {:>11}",
+        "event", "t s", "angle deg", "rate r/s", "hits", "slip", "dissip J", "work J", "balance J"
+    );
+    let mut tracker = Tracker {
+        hits: 0,
+        was_at_stop: false,
+        was_slipping: true,
+        was_locked: false,
+        pulse_done: false,
+    };
+    let (mut past, mut worst, mut max_kin): (Real, Real, Real) = (0.0, 0.0, 0.0);
+    let mut printed = 0usize;
+    const MAX_ROWS: usize = 40;
+    for _ in 0..common::steps(o.secs, settings.dt) {
+        world.step()?;
+        let t = world.time();
+        let out = *world.output(id)?;
+        let e = world.energy();
+        let angle = out.measure[5];
+        let rate = out.angular_velocity.z;
+        let balance = e.total - e0;
+        past = past.max(angle - open).max(-angle);
+        worst = worst.max(balance.abs());
+        max_kin = max_kin.max(e.kinetic);
+        csv.row(&[
+            t,
+            angle,
+            rate,
+            Real::from(out.stops),
+            Real::from(out.locks),
+            Real::from(u8::from(out.friction.is_some_and(|f| f.slipping))),
+            out.friction.map_or(0.0, |f| f.force),
+            out.friction.map_or(0.0, |f| f.normal),
+            e.kinetic,
+            e.potential,
+            e.dissipated,
+            e.work,
+            balance,
+        ])?;
+        let events = tracker.update(t, &out, o.pulse, open);
+        let (hits, f) = (tracker.hits, out.friction.unwrap_or_default());
+        for ev in events {
+            printed += 1;
+            if printed <= MAX_ROWS {
+                println!(
+                    "{ev:<26} {t:>7.3} {:>9.3} {rate:>9.4} {hits:>5} {:>6} {:>10.4} {:>10.4} {balance:>+11.2e}",
+                    deg(angle),
+                    if f.slipping { "slip" } else { "stick" },
+                    e.dissipated,
+                    e.work
+                );
+            } else if printed == MAX_ROWS + 1 {
+                println!("... (further events in the CSV)");
+            }
+        }
+    }
+    println!("wrote {}", csv.finish()?.display());
+    let extremes = Extremes {
+        hits: tracker.hits,
+        events: printed,
+        balance: worst,
+        kinetic: max_kin,
+        past,
+    };
+    report(&world, id, e0, &extremes)?;
+    Ok(())
+}
+
+/// The door on its tilted hinge (frame I `axes`), with friction, the stops, the latch if any,
+/// and the push as an `FJ` pulse.
+fn door(o: &Opts, axes: Rotation) -> Result<(Mpc184World, JointId), Error> {
+    let open = OPEN_STOP_DEG.to_radians();
+    let hinge = Vector::new(0.0, 1.0, 0.0);
+    let mut world = Mpc184World::new(WorldSettings::default());
     // The door's local axes are frame I's: x along the width, z along the height (the hinge
     // axis), y through the thickness; the centre of mass half a width out from the hinge line.
     let inertia = Vector::new(
@@ -131,119 +217,89 @@ fn run(o: Opts) -> RunResult {
             extend: false,
         },
     )?;
-    let e0 = world.energy().total;
-    println!(
-        "door {MASS} kg, {WIDTH} x {HEIGHT} m, hinge tilt {} deg, mu {}, stop [0, {OPEN_STOP_DEG}] deg, push {} N m for {} s{}, {} s at dt 1/60, 4 substeps",
-        o.tilt,
-        o.mu,
-        o.push,
-        o.pulse,
-        o.latch
-            .map_or(String::new(), |l| format!(", latch at {l} deg")),
-        o.secs
-    );
-    let mut csv = Csv::create(
-        &o.out,
-        "door_hinge.csv",
-        &[
-            "t",
-            "angle",
-            "rate",
-            "stops",
-            "locks",
-            "slipping",
-            "friction",
-            "normal",
-            "kinetic",
-            "potential",
-            "dissipated",
-            "work",
-            "balance",
-        ],
-    )?;
-    println!(
-        "\n{:<26} {:>7} {:>9} {:>9} {:>5} {:>6} {:>10} {:>10} {:>11}",
-        "event", "t s", "angle deg", "rate r/s", "hits", "slip", "dissip J", "work J", "balance J"
-    );
-    let (mut hits, mut was_at_stop, mut was_slipping, mut was_locked) = (0u32, false, true, false);
-    let (mut past, mut worst, mut max_kin): (Real, Real, Real) = (0.0, 0.0, 0.0);
-    let (mut printed, mut pulse_done) = (0usize, false);
-    const MAX_ROWS: usize = 40;
-    for _ in 0..common::steps(o.secs, settings.dt) {
-        world.step()?;
-        let t = world.time();
-        let out = *world.output(id)?;
-        let e = world.energy();
+    Ok((world, id))
+}
+
+/// The events of the run: stop hits, stick/slip changes, the latch, the end of the pulse.
+struct Tracker {
+    hits: u32,
+    was_at_stop: bool,
+    was_slipping: bool,
+    was_locked: bool,
+    pulse_done: bool,
+}
+
+impl Tracker {
+    /// The events of the step that ended at `t`.
+    fn update(&mut self, t: Real, out: &JointOutput, pulse: Real, open: Real) -> Vec<String> {
         let angle = out.measure[5];
-        let rate = out.angular_velocity.z;
         let f = out.friction.unwrap_or_default();
-        let balance = e.total - e0;
-        past = past.max(angle - open).max(-angle);
-        worst = worst.max(balance.abs());
-        max_kin = max_kin.max(e.kinetic);
-        csv.row(&[
-            t,
-            angle,
-            rate,
-            Real::from(out.stops),
-            Real::from(out.locks),
-            Real::from(u8::from(f.slipping)),
-            f.force,
-            f.normal,
-            e.kinetic,
-            e.potential,
-            e.dissipated,
-            e.work,
-            balance,
-        ])?;
         let mut events = Vec::new();
-        if !pulse_done && t >= o.pulse {
-            pulse_done = true;
+        if !self.pulse_done && t >= pulse {
+            self.pulse_done = true;
             events.push("pulse ends".to_string());
         }
         // A lock's landing and hold count among `stops` too; once latched, the friction state
         // of the held DOF flips between stick and slip at zero rate (not reported as events).
         let locked = out.locks > 0;
         let at_stop = out.stops > 0 && !locked;
-        if at_stop && !was_at_stop {
-            hits += 1;
+        if at_stop && !self.was_at_stop {
+            self.hits += 1;
             let side = if angle > 0.5 * open { "wall" } else { "frame" };
             events.push(format!("hits the {side} stop"));
         }
-        was_at_stop = at_stop;
-        if f.slipping != was_slipping && !locked {
+        self.was_at_stop = at_stop;
+        if f.slipping != self.was_slipping && !locked {
             events.push(if f.slipping { "slips" } else { "sticks" }.to_string());
-            was_slipping = f.slipping;
+            self.was_slipping = f.slipping;
         }
-        if locked && !was_locked {
+        if locked && !self.was_locked {
             events.push("latched (lock)".to_string());
         }
-        was_locked = locked;
-        for ev in events {
-            printed += 1;
-            if printed <= MAX_ROWS {
-                println!(
-                    "{ev:<26} {t:>7.3} {:>9.3} {rate:>9.4} {hits:>5} {:>6} {:>10.4} {:>10.4} {balance:>+11.2e}",
-                    deg(angle),
-                    if f.slipping { "slip" } else { "stick" },
-                    e.dissipated,
-                    e.work
-                );
-            } else if printed == MAX_ROWS + 1 {
-                println!("... (further events in the CSV)");
-            }
-        }
+        self.was_locked = locked;
+        events
     }
+}
+
+/// The CSV's columns.
+const COLUMNS: [&str; 13] = [
+    "t",
+    "angle",
+    "rate",
+    "stops",
+    "locks",
+    "slipping",
+    "friction",
+    "normal",
+    "kinetic",
+    "potential",
+    "dissipated",
+    "work",
+    "balance",
+];
+
+/// What the run saw: stop hits, events printed, the largest energy balance error (J) and
+/// kinetic energy (J), the deepest excursion past a stop (rad).
+struct Extremes {
+    hits: u32,
+    events: usize,
+    balance: Real,
+    kinetic: Real,
+    past: Real,
+}
+
+/// The end of the run: the door's state and the energy balance.
+fn report(world: &Mpc184World, id: JointId, e0: Real, x: &Extremes) -> Result<(), Error> {
+    let deg = |x: Real| x.to_degrees();
     let e = world.energy();
     let out = *world.output(id)?;
-    println!("wrote {}", csv.finish()?.display());
     println!(
         "\nend: t {:.2} s, angle {:.4} deg, rate {:.2e} rad/s, {} stop hits, {} events, {}",
         world.time(),
         deg(out.measure[5]),
         out.angular_velocity.z,
-        hits,
-        printed,
+        x.hits,
+        x.events,
         if out.friction.is_some_and(|f| f.slipping) {
             "slipping"
         } else {
@@ -261,9 +317,12 @@ fn run(o: Opts) -> RunResult {
     println!(
         "balance (kinetic + potential + spring + dissipated - work, minus its start): end {:+.3e} J, largest {:.3e} J = {:.2e} of the work",
         e.total - e0,
-        worst,
-        worst / e.work.abs().max(Real::MIN_POSITIVE)
+        x.balance,
+        x.balance / e.work.abs().max(Real::MIN_POSITIVE)
     );
-    println!("largest kinetic energy {max_kin:.4} J; deepest excursion past a stop {past:.2e} rad");
+    println!(
+        "largest kinetic energy {:.4} J; deepest excursion past a stop {:.2e} rad",
+        x.kinetic, x.past
+    );
     Ok(())
 }

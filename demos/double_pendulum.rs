@@ -121,7 +121,6 @@ fn forces(b: &Benchmark) -> Result<[Real; 2], Error> {
 }
 
 fn run(o: Opts) -> RunResult {
-    let mgl = M * G * L;
     let exact0 = exact_reactions([0.5 * PI; 2], [0.0; 2]);
     println!(
         "double pendulum, 2 x 1 m, 2 x 1 kg, released horizontally; dt {:.5} s, {} substeps, {} s",
@@ -134,106 +133,7 @@ fn run(o: Opts) -> RunResult {
     );
     let mut summary = Vec::new();
     for &backend in &o.backends {
-        println!("\n## {}", backend.name());
-        // The reaction at t = 0: one probe step of 1e-6 s.
-        match build(backend, 1e-6, o.substeps).and_then(|mut p| {
-            p.world.step()?;
-            forces(&p)
-        }) {
-            Ok(f0) => println!(
-                "t = 0 (probe step of 1e-6 s): |F1| = {:.4e} N, |F2| = {:.4e} N",
-                f0[0], f0[1]
-            ),
-            Err(e) => println!("t = 0 probe step of 1e-6 s failed: {e}"),
-        }
-        let mut b = match build(backend, o.dt, o.substeps) {
-            Ok(b) => b,
-            Err(e) => {
-                println!("{e}");
-                summary.push(format!("{:<18} {e}", backend.name()));
-                continue;
-            }
-        };
-        let mut csv = Csv::create(
-            &o.out,
-            &format!("double_pendulum_{}.csv", backend.name()),
-            &[
-                "t", "theta1", "theta2", "energy", "dE_mgL", "gap", "f1", "f2", "f1_exact",
-                "f2_exact",
-            ],
-        )?;
-        let e0 = b.energy();
-        let (th, _) = state(&b);
-        let nan = Real::NAN;
-        csv.row(&[0.0, th[0], th[1], e0, 0.0, b.max_gap()?, nan, nan, nan, nan])?;
-        println!(
-            "{:>6} {:>9} {:>9} {:>11} {:>9} {:>10} {:>10} {:>10} {:>10}",
-            "t s", "th1 deg", "th2 deg", "dE/mgL", "gap m", "F1 N", "F1 exact", "F2 N", "F2 exact"
-        );
-        let n = common::steps(o.secs, o.dt);
-        let (mut energies, mut gap, mut busy) = (Vec::with_capacity(n), 0.0 as Real, 0.0);
-        let mut first = None;
-        let mut status = "ok".to_string();
-        for s in 1..=n {
-            let t0 = Instant::now();
-            let r = b.world.step();
-            busy += t0.elapsed().as_secs_f64();
-            if let Err(e) = r {
-                status = format!("failed at step {s}: {e}");
-                break;
-            }
-            let (th, w) = state(&b);
-            let f = forces(&b)?;
-            let fx = exact_reactions(th, w).map(norm);
-            let (e, g) = (b.energy(), b.max_gap()?);
-            energies.push(e);
-            gap = gap.max(g);
-            let t = b.world.time();
-            csv.row(&[
-                t,
-                th[0],
-                th[1],
-                e,
-                (e - e0) / mgl,
-                g,
-                f[0],
-                f[1],
-                fx[0],
-                fx[1],
-            ])?;
-            first.get_or_insert((t, f, fx));
-            if s % (n / 10).max(1) == 0 || s == 1 {
-                println!(
-                    "{t:>6.2} {:>9.2} {:>9.2} {:>+11.3e} {g:>9.1e} {:>10.4} {:>10.4} {:>10.4} {:>10.4}",
-                    th[0].to_degrees(),
-                    th[1].to_degrees(),
-                    (e - e0) / mgl,
-                    f[0],
-                    fx[0],
-                    f[1],
-                    fx[1]
-                );
-            }
-            if !g.is_finite() || g > 10.0 || !e.is_finite() || (e - e0).abs() > 100.0 * mgl {
-                status = format!("blew up at t = {t:.2} s");
-                break;
-            }
-        }
-        let path = csv.finish()?;
-        if let Some((t, f, fx)) = first {
-            println!(
-                "first step t = {t:.4} s: |F1| = {:.4} N (exact at the simulated state {:.4}), |F2| = {:.4} N ({:.4})",
-                f[0], fx[0], f[1], fx[1]
-            );
-        }
-        let us = busy * 1e6 / energies.len().max(1) as f64;
-        println!("wrote {}", path.display());
-        summary.push(format!(
-            "{:<18} {:>+11.2e} {:>11.2e} {gap:>10.1e} {us:>9.1}  {status}",
-            backend.name(),
-            common::drift(&energies, mgl),
-            common::oscillation(&energies, e0, mgl),
-        ));
+        summary.push(run_backend(&o, backend)?);
     }
     println!(
         "\n{:<18} {:>11} {:>11} {:>10} {:>9}  status",
@@ -243,4 +143,112 @@ fn run(o: Opts) -> RunResult {
         println!("{s}");
     }
     Ok(())
+}
+
+/// The reaction at t = 0 on a backend: one probe step of 1e-6 s.
+fn probe_start(backend: Backend, substeps: usize) {
+    // The reaction at t = 0: one probe step of 1e-6 s.
+    match build(backend, 1e-6, substeps).and_then(|mut p| {
+        p.world.step()?;
+        forces(&p)
+    }) {
+        Ok(f0) => println!(
+            "t = 0 (probe step of 1e-6 s): |F1| = {:.4e} N, |F2| = {:.4e} N",
+            f0[0], f0[1]
+        ),
+        Err(e) => println!("t = 0 probe step of 1e-6 s failed: {e}"),
+    }
+}
+
+/// One backend's run: its table, CSV and summary line.
+fn run_backend(o: &Opts, backend: Backend) -> Result<String, Box<dyn std::error::Error>> {
+    let mgl = M * G * L;
+    println!("\n## {}", backend.name());
+    probe_start(backend, o.substeps);
+    let mut b = match build(backend, o.dt, o.substeps) {
+        Ok(b) => b,
+        Err(e) => {
+            println!("{e}");
+            return Ok(format!("{:<18} {e}", backend.name()));
+        }
+    };
+    let mut csv = Csv::create(
+        &o.out,
+        &format!("double_pendulum_{}.csv", backend.name()),
+        &[
+            "t", "theta1", "theta2", "energy", "dE_mgL", "gap", "f1", "f2", "f1_exact", "f2_exact",
+        ],
+    )?;
+    let e0 = b.energy();
+    let (th, _) = state(&b);
+    let nan = Real::NAN;
+    csv.row(&[0.0, th[0], th[1], e0, 0.0, b.max_gap()?, nan, nan, nan, nan])?;
+    println!(
+        "{:>6} {:>9} {:>9} {:>11} {:>9} {:>10} {:>10} {:>10} {:>10}",
+        "t s", "th1 deg", "th2 deg", "dE/mgL", "gap m", "F1 N", "F1 exact", "F2 N", "F2 exact"
+    );
+    let n = common::steps(o.secs, o.dt);
+    let (mut energies, mut gap, mut busy) = (Vec::with_capacity(n), 0.0 as Real, 0.0);
+    let mut first = None;
+    let mut status = "ok".to_string();
+    for s in 1..=n {
+        let t0 = Instant::now();
+        let r = b.world.step();
+        busy += t0.elapsed().as_secs_f64();
+        if let Err(e) = r {
+            status = format!("failed at step {s}: {e}");
+            break;
+        }
+        let (th, w) = state(&b);
+        let f = forces(&b)?;
+        let fx = exact_reactions(th, w).map(norm);
+        let (e, g) = (b.energy(), b.max_gap()?);
+        energies.push(e);
+        gap = gap.max(g);
+        let t = b.world.time();
+        csv.row(&[
+            t,
+            th[0],
+            th[1],
+            e,
+            (e - e0) / mgl,
+            g,
+            f[0],
+            f[1],
+            fx[0],
+            fx[1],
+        ])?;
+        first.get_or_insert((t, f, fx));
+        if s % (n / 10).max(1) == 0 || s == 1 {
+            println!(
+                "{t:>6.2} {:>9.2} {:>9.2} {:>+11.3e} {g:>9.1e} {:>10.4} {:>10.4} {:>10.4} {:>10.4}",
+                th[0].to_degrees(),
+                th[1].to_degrees(),
+                (e - e0) / mgl,
+                f[0],
+                fx[0],
+                f[1],
+                fx[1]
+            );
+        }
+        if !g.is_finite() || g > 10.0 || !e.is_finite() || (e - e0).abs() > 100.0 * mgl {
+            status = format!("blew up at t = {t:.2} s");
+            break;
+        }
+    }
+    let path = csv.finish()?;
+    if let Some((t, f, fx)) = first {
+        println!(
+            "first step t = {t:.4} s: |F1| = {:.4} N (exact at the simulated state {:.4}), |F2| = {:.4} N ({:.4})",
+            f[0], fx[0], f[1], fx[1]
+        );
+    }
+    let us = busy * 1e6 / energies.len().max(1) as f64;
+    println!("wrote {}", path.display());
+    Ok(format!(
+        "{:<18} {:>+11.2e} {:>11.2e} {gap:>10.1e} {us:>9.1}  {status}",
+        backend.name(),
+        common::drift(&energies, mgl),
+        common::oscillation(&energies, e0, mgl),
+    ))
 }

@@ -89,42 +89,14 @@ fn run(o: Opts) -> RunResult {
     }
     .add_to(&mut world, &mut schedule);
 
-    // The pendulum.
-    let (m, l, th0) = (1.0 as Real, 1.0 as Real, PI / 3.0);
-    let bob = world
-        .spawn(Mpc184Body::dynamic(
-            Vector::new(l * th0.sin(), -l * th0.cos(), 0.0),
-            m,
-            Vector::splat(1e-4),
-        ))
-        .id();
-    let pend = hinge(&mut world, Vector::ZERO, None, bob);
-    // The two-link chain, 2 m behind (+Z).
-    let (mc, lc, a0) = (0.5 as Real, 0.5 as Real, PI / 4.0);
-    let base = Vector::new(0.0, 0.0, 2.0);
-    let dir = Vector::new(a0.sin(), -a0.cos(), 0.0);
-    let bead = |k: Real| Mpc184Body::dynamic(base + dir * (k * lc), mc, Vector::splat(mc * 1e-4));
-    let bead1 = world.spawn(bead(1.0)).id();
-    let bead2 = world.spawn(bead(2.0)).id();
-    let link1 = hinge(&mut world, base, None, bead1);
-    let link2 = hinge(&mut world, base + dir * lc, Some(bead1), bead2);
-
-    let mut csv = Csv::create(
-        &o.out,
-        "ecs_demo.csv",
-        &[
-            "frame",
-            "t",
-            "pend_rotz",
-            "pend_force",
-            "pend_force_exact",
-            "link1_rotz",
-            "link1_force",
-            "link2_rotz",
-            "link2_force",
-            "bead2_vy",
-        ],
-    )?;
+    let Scene {
+        pend,
+        link1,
+        link2,
+        bead2,
+    } = spawn_scene(&mut world);
+    let (m, l, th0) = (PENDULUM_MASS, PENDULUM_LENGTH, PENDULUM_START);
+    let mut csv = Csv::create(&o.out, "ecs_demo.csv", &COLUMNS)?;
     println!(
         "{} backend: pendulum + two-link chain as entities; chain joint 2 despawned at frame {}",
         o.backend.name(),
@@ -206,4 +178,62 @@ fn run(o: Opts) -> RunResult {
         );
     }
     Ok(())
+}
+
+/// The pendulum bob (kg), its distance from the pivot (m) and starting angle from the vertical
+/// (rad).
+const PENDULUM_MASS: Real = 1.0;
+const PENDULUM_LENGTH: Real = 1.0;
+const PENDULUM_START: Real = PI / 3.0;
+
+/// The CSV's columns.
+const COLUMNS: [&str; 10] = [
+    "frame",
+    "t",
+    "pend_rotz",
+    "pend_force",
+    "pend_force_exact",
+    "link1_rotz",
+    "link1_force",
+    "link2_rotz",
+    "link2_force",
+    "bead2_vy",
+];
+
+/// The entities the demo reads.
+struct Scene {
+    pend: Entity,
+    link1: Entity,
+    link2: Entity,
+    bead2: Entity,
+}
+
+/// Spawns the pendulum and, 2 m behind (+Z), the two-link chain.
+fn spawn_scene(world: &mut World) -> Scene {
+    // The pendulum.
+    let (m, l, th0) = (PENDULUM_MASS, PENDULUM_LENGTH, PENDULUM_START);
+    let bob = world
+        .spawn(Mpc184Body::dynamic(
+            Vector::new(l * th0.sin(), -l * th0.cos(), 0.0),
+            m,
+            Vector::splat(1e-4),
+        ))
+        .id();
+    let pend = hinge(world, Vector::ZERO, None, bob);
+    // The two-link chain, 2 m behind (+Z).
+    let (mc, lc, a0) = (0.5 as Real, 0.5 as Real, PI / 4.0);
+    let base = Vector::new(0.0, 0.0, 2.0);
+    let dir = Vector::new(a0.sin(), -a0.cos(), 0.0);
+    let bead = |k: Real| Mpc184Body::dynamic(base + dir * (k * lc), mc, Vector::splat(mc * 1e-4));
+    let bead1 = world.spawn(bead(1.0)).id();
+    let bead2 = world.spawn(bead(2.0)).id();
+    let link1 = hinge(world, base, None, bead1);
+    let link2 = hinge(world, base + dir * lc, Some(bead1), bead2);
+
+    Scene {
+        pend,
+        link1,
+        link2,
+        bead2,
+    }
 }

@@ -324,7 +324,6 @@ fn mechanism(title: &str, build: impl Fn(Backend) -> Result<Benchmark, Error>, s
 /// timed and the fastest is kept (the machine's noise is +-30 %). Measured only: the solver is
 /// not changed here.
 fn model_cost() {
-    use rapier3d_mpc184::math::rapier::prelude::{MassProperties, RigidBodyBuilder};
     println!(
         "\n## model no more than a scene needs: 100-link chain, Lagrange, dt 1/60, 4 substeps (best of three 1 s windows after 3 s)"
     );
@@ -332,47 +331,6 @@ fn model_cost() {
         "{:<44} {:>10} {:>8} {:>14}",
         "case", "us/step", "ratio", "asleep bodies"
     );
-    let settings = WorldSettings {
-        dt: 1.0 / 60.0,
-        substeps: 4,
-        backend: Backend::Lagrange,
-        ..Default::default()
-    };
-    let build = |stops: bool, resting: Option<bool>| -> Result<Benchmark, Error> {
-        let mut b = benchmarks::chain(settings, 100, 0.1, 0.01, 1.0, 20f64.to_radians() as Real)?;
-        if stops {
-            // Re-insert each joint (time 0: same frames) with a stop far away.
-            for k in 0..b.joints.len() {
-                let [b1, b2] = b.joint_bodies[k];
-                let j = b.world.remove_joint(b.joints[k])?;
-                b.joints[k] = b
-                    .world
-                    .insert_joint(b1, b2, j.with_stop(Dof::RotZ, -10.0, 10.0))?;
-            }
-        }
-        if let Some(can_sleep) = resting {
-            // A second chain hanging straight down at rest 5 m away (in equilibrium).
-            let mut prev = None;
-            for k in 0..100 {
-                let m = 0.01;
-                let bead = b.world.physics.bodies.insert(
-                    RigidBodyBuilder::dynamic()
-                        .translation(Vector::new(5.0, -0.1 * (k + 1) as Real, 0.0))
-                        .additional_mass_properties(MassProperties::new(
-                            Vector::ZERO,
-                            m,
-                            Vector::splat(m * benchmarks::BEAD_GYRATION_SQUARED),
-                        ))
-                        .can_sleep(can_sleep),
-                );
-                let pivot = Vector::new(5.0, -0.1 * k as Real, 0.0);
-                b.world
-                    .insert_joint(prev, Some(bead), Mpc184Joint::revolute(Axis::Z, pivot))?;
-                prev = Some(bead);
-            }
-        }
-        Ok(b)
-    };
     let cases: [(&str, bool, Option<bool>); 4] = [
         ("chain as built", false, None),
         ("+ inactive stop on every joint (+-10 rad)", true, None),
@@ -385,38 +343,20 @@ fn model_cost() {
     ];
     let mut base = None;
     for (name, stops, resting) in cases {
-        let mut b = match build(stops, resting) {
+        let mut b = match model_case(stops, resting) {
             Ok(b) => b,
             Err(e) => {
                 println!("{name:<44} {e}");
                 continue;
             }
         };
-        let mut failed = None;
-        for _ in 0..180 {
-            if let Err(e) = b.world.step() {
-                failed = Some(e);
-                break;
+        let best = match time_case(&mut b) {
+            Ok(best) => best,
+            Err(e) => {
+                println!("{name:<44} failed: {e}");
+                continue;
             }
-        }
-        let mut best = f64::INFINITY;
-        for _ in 0..3 {
-            if failed.is_some() {
-                break;
-            }
-            let t0 = Instant::now();
-            for _ in 0..60 {
-                if let Err(e) = b.world.step() {
-                    failed = Some(e);
-                    break;
-                }
-            }
-            best = best.min(t0.elapsed().as_secs_f64() * 1e6 / 60.0);
-        }
-        if let Some(e) = failed {
-            println!("{name:<44} failed: {e}");
-            continue;
-        }
+        };
         let asleep = b
             .world
             .physics
@@ -431,4 +371,66 @@ fn model_cost() {
             best / base_us
         );
     }
+}
+
+/// The 100-link chain of [`model_cost`], with an inactive stop on every joint (`stops`) and a
+/// second chain at rest beside it (`resting`: whether it may sleep).
+fn model_case(stops: bool, resting: Option<bool>) -> Result<Benchmark, Error> {
+    use rapier3d_mpc184::math::rapier::prelude::{MassProperties, RigidBodyBuilder};
+    let settings = WorldSettings {
+        dt: 1.0 / 60.0,
+        substeps: 4,
+        backend: Backend::Lagrange,
+        ..Default::default()
+    };
+
+    let mut b = benchmarks::chain(settings, 100, 0.1, 0.01, 1.0, 20f64.to_radians() as Real)?;
+    if stops {
+        // Re-insert each joint (time 0: same frames) with a stop far away.
+        for k in 0..b.joints.len() {
+            let [b1, b2] = b.joint_bodies[k];
+            let j = b.world.remove_joint(b.joints[k])?;
+            b.joints[k] = b
+                .world
+                .insert_joint(b1, b2, j.with_stop(Dof::RotZ, -10.0, 10.0))?;
+        }
+    }
+    if let Some(can_sleep) = resting {
+        // A second chain hanging straight down at rest 5 m away (in equilibrium).
+        let mut prev = None;
+        for k in 0..100 {
+            let m = 0.01;
+            let bead = b.world.physics.bodies.insert(
+                RigidBodyBuilder::dynamic()
+                    .translation(Vector::new(5.0, -0.1 * (k + 1) as Real, 0.0))
+                    .additional_mass_properties(MassProperties::new(
+                        Vector::ZERO,
+                        m,
+                        Vector::splat(m * benchmarks::BEAD_GYRATION_SQUARED),
+                    ))
+                    .can_sleep(can_sleep),
+            );
+            let pivot = Vector::new(5.0, -0.1 * k as Real, 0.0);
+            b.world
+                .insert_joint(prev, Some(bead), Mpc184Joint::revolute(Axis::Z, pivot))?;
+            prev = Some(bead);
+        }
+    }
+    Ok(b)
+}
+
+/// 3 s untimed, then the fastest of three timed 1 s windows (us per step).
+fn time_case(b: &mut Benchmark) -> Result<f64, Error> {
+    for _ in 0..180 {
+        b.world.step()?;
+    }
+    let mut best = f64::INFINITY;
+    for _ in 0..3 {
+        let t0 = Instant::now();
+        for _ in 0..60 {
+            b.world.step()?;
+        }
+        best = best.min(t0.elapsed().as_secs_f64() * 1e6 / 60.0);
+    }
+    Ok(best)
 }

@@ -137,22 +137,9 @@ fn run(o: Opts) -> RunResult {
         steps as Real * o.dt
     );
     let (mut world, joints) = chain(&o)?;
-    let e0 = world.energy().total;
-    // Energy scale: the largest kinetic energy seen plus the potential range of the chain.
-    let potential_range = LINKS as Real * MASS * G * LINKS as Real * LENGTH;
-    let mut max_kinetic: Real = 0.0;
-    let (mut max_abs, mut sum, mut n_sum, mut interval_max): (Real, Real, usize, Real) =
-        (0.0, 0.0, 0, 0.0);
-    let mut nan = 0usize;
-    let rss_start = rss_kb();
-    let mut rss_first_report = 0;
-    let mut rss_max = rss_start;
+    let mut stats = Stats::new(world.energy().total);
     let every = o.report.div_ceil(o.substeps).max(1);
     let started = Instant::now();
-    let mut last = (Instant::now(), 0usize);
-    let mut stops_seen = 0usize;
-    let mut slips = 0usize;
-    let mut bend = [0.0 as Real; LINKS];
     println!(
         "{:>10} {:>10} {:>12} {:>12} {:>12} {:>6} {:>5} {:>6} {:>9} {:>12}",
         "substeps",
@@ -172,65 +159,149 @@ fn run(o: Opts) -> RunResult {
             status = Err(e);
             break;
         }
-        let e = world.energy();
-        if !(e.total.is_finite() && e.kinetic.is_finite()) {
-            nan += 1;
-        }
-        max_kinetic = max_kinetic.max(e.kinetic);
-        let b = e.total - e0;
-        max_abs = max_abs.max(b.abs());
-        interval_max = interval_max.max(b.abs());
-        sum += b;
-        n_sum += 1;
-        for (k, j) in joints.iter().enumerate() {
-            let out = world.output(*j)?;
-            bend[k] = bend[k].max(out.measure[5].abs());
-            stops_seen += usize::from(out.stops > 0);
-            slips += usize::from(out.friction.is_some_and(|f| f.slipping));
-        }
+        let b = stats.observe(&world, &joints)?;
         if s % every == 0 || s == steps {
-            let scale = max_kinetic + potential_range;
-            let rss = rss_kb();
-            rss_max = rss_max.max(rss);
-            if rss_first_report == 0 {
-                rss_first_report = rss;
-            }
-            let done = s * o.substeps;
-            let rate = (done - last.1) as f64 / last.0.elapsed().as_secs_f64();
-            last = (Instant::now(), done);
-            let locks = world.output(joints[LINKS - 1])?.locks;
-            println!(
-                "{done:>10} {:>10.1} {:>+12.3e} {:>+12.3e} {:>12.3e} {stops_seen:>6} {locks:>5} {slips:>6} {rss:>9} {rate:>12.0}",
-                world.time(),
-                b / scale,
-                sum / n_sum as Real / scale,
-                interval_max / scale
-            );
-            (sum, n_sum, interval_max, stops_seen, slips) = (0.0, 0, 0.0, 0, 0);
+            stats.report(&world, &joints, s * o.substeps, b)?;
         }
     }
-    let wall = started.elapsed().as_secs_f64();
     let done = (world.time() / o.dt).round() as usize * o.substeps;
-    let scale = max_kinetic + potential_range;
-    let rss_end = rss_kb();
-    println!(
-        "\n{done} substeps in {wall:.1} s wall ({:.0} substeps/s); energy scale {scale:.4} J \
-         (largest kinetic {max_kinetic:.4} J + m g L {potential_range:.4} J); largest |balance| \
-         {max_abs:.4e} J = {:.3e} of the scale; RSS {rss_start} kB at the start, \
-         {rss_first_report} kB at the first report, {rss_end} kB at the end (largest {rss_max} kB)",
-        done as f64 / wall,
-        max_abs / scale
-    );
-    let bend: Vec<String> = bend.iter().map(|b| format!("{b:.2}")).collect();
-    println!("largest hinge angle per hinge (rad): {}", bend.join(" "));
-    let diverged = match &status {
-        Ok(()) => "none".to_string(),
-        Err(e) => format!("\"{e}\""),
-    };
-    println!(
-        "RESULT substeps={done} nan={nan} diverged={diverged} max_abs_balance={max_abs:e} \
-         energy_scale={scale:e} rss_start_kb={rss_start} rss_first_report_kb={rss_first_report} \
-         rss_end_kb={rss_end} rss_max_kb={rss_max} wall_s={wall:.2}"
-    );
+    stats.finish(done, started.elapsed().as_secs_f64(), &status);
     status.map_err(Into::into)
+}
+
+/// The energy scale's potential part: the chain's potential range (J).
+const POTENTIAL_RANGE: Real = LINKS as Real * MASS * G * LINKS as Real * LENGTH;
+
+/// What the run has seen so far, and since the last report.
+struct Stats {
+    e0: Real,
+    /// Energy scale: the largest kinetic energy seen plus the potential range of the chain.
+    max_kinetic: Real,
+    max_abs: Real,
+    nan: usize,
+    bend: [Real; LINKS],
+    rss_start: u64,
+    rss_first_report: u64,
+    rss_max: u64,
+    /// Since the last report: balance sum and count, largest |balance|, stop and slip
+    /// substeps; and when the last report was (time, substeps).
+    sum: Real,
+    n_sum: usize,
+    interval_max: Real,
+    stops_seen: usize,
+    slips: usize,
+    last: (Instant, usize),
+}
+
+impl Stats {
+    fn new(e0: Real) -> Stats {
+        let rss_start = rss_kb();
+        Stats {
+            e0,
+            max_kinetic: 0.0,
+            max_abs: 0.0,
+            nan: 0,
+            bend: [0.0; LINKS],
+            rss_start,
+            rss_first_report: 0,
+            rss_max: rss_start,
+            sum: 0.0,
+            n_sum: 0,
+            interval_max: 0.0,
+            stops_seen: 0,
+            slips: 0,
+            last: (Instant::now(), 0),
+        }
+    }
+
+    /// Books a step; returns the energy balance (J).
+    fn observe(&mut self, world: &Mpc184World, joints: &[JointId]) -> Result<Real, Error> {
+        let e = world.energy();
+        if !(e.total.is_finite() && e.kinetic.is_finite()) {
+            self.nan += 1;
+        }
+        self.max_kinetic = self.max_kinetic.max(e.kinetic);
+        let b = e.total - self.e0;
+        self.max_abs = self.max_abs.max(b.abs());
+        self.interval_max = self.interval_max.max(b.abs());
+        self.sum += b;
+        self.n_sum += 1;
+        for (k, j) in joints.iter().enumerate() {
+            let out = world.output(*j)?;
+            self.bend[k] = self.bend[k].max(out.measure[5].abs());
+            self.stops_seen += usize::from(out.stops > 0);
+            self.slips += usize::from(out.friction.is_some_and(|f| f.slipping));
+        }
+        Ok(b)
+    }
+
+    /// One report row after `done` substeps (balance `b`), then a new interval.
+    fn report(
+        &mut self,
+        world: &Mpc184World,
+        joints: &[JointId],
+        done: usize,
+        b: Real,
+    ) -> Result<(), Error> {
+        let scale = self.max_kinetic + POTENTIAL_RANGE;
+        let rss = rss_kb();
+        self.rss_max = self.rss_max.max(rss);
+        if self.rss_first_report == 0 {
+            self.rss_first_report = rss;
+        }
+        let rate = (done - self.last.1) as f64 / self.last.0.elapsed().as_secs_f64();
+        self.last = (Instant::now(), done);
+        let locks = world.output(joints[LINKS - 1])?.locks;
+        let (stops_seen, slips) = (self.stops_seen, self.slips);
+        println!(
+            "{done:>10} {:>10.1} {:>+12.3e} {:>+12.3e} {:>12.3e} {stops_seen:>6} {locks:>5} {slips:>6} {rss:>9} {rate:>12.0}",
+            world.time(),
+            b / scale,
+            self.sum / self.n_sum as Real / scale,
+            self.interval_max / scale
+        );
+        (
+            self.sum,
+            self.n_sum,
+            self.interval_max,
+            self.stops_seen,
+            self.slips,
+        ) = (0.0, 0, 0.0, 0, 0);
+        Ok(())
+    }
+
+    /// The summary and the RESULT line after `done` substeps in `wall` seconds.
+    fn finish(&self, done: usize, wall: f64, status: &Result<(), Error>) {
+        let scale = self.max_kinetic + POTENTIAL_RANGE;
+        let rss_end = rss_kb();
+        let Stats {
+            max_kinetic,
+            max_abs,
+            nan,
+            rss_start,
+            rss_first_report,
+            rss_max,
+            ..
+        } = *self;
+        let potential_range = POTENTIAL_RANGE;
+        println!(
+            "\n{done} substeps in {wall:.1} s wall ({:.0} substeps/s); energy scale {scale:.4} J \
+             (largest kinetic {max_kinetic:.4} J + m g L {potential_range:.4} J); largest |balance| \
+             {max_abs:.4e} J = {:.3e} of the scale; RSS {rss_start} kB at the start, \
+             {rss_first_report} kB at the first report, {rss_end} kB at the end (largest {rss_max} kB)",
+            done as f64 / wall,
+            max_abs / scale
+        );
+        let bend: Vec<String> = self.bend.iter().map(|b| format!("{b:.2}")).collect();
+        println!("largest hinge angle per hinge (rad): {}", bend.join(" "));
+        let diverged = match status {
+            Ok(()) => "none".to_string(),
+            Err(e) => format!("\"{e}\""),
+        };
+        println!(
+            "RESULT substeps={done} nan={nan} diverged={diverged} max_abs_balance={max_abs:e} \
+             energy_scale={scale:e} rss_start_kb={rss_start} rss_first_report_kb={rss_first_report} \
+             rss_end_kb={rss_end} rss_max_kb={rss_max} wall_s={wall:.2}"
+        );
+    }
 }

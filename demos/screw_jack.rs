@@ -151,7 +151,6 @@ fn run(o: Opts) -> RunResult {
     let w = o.mass * G;
     let (p, r, mu) = (o.pitch, o.radius, o.mu);
     let tan_l = p / r;
-    let c = mu * (r * r + p * p) / r;
     println!(
         "screw jack: W = m g = {w:.2} N, r = {r} m, p = {p:.4e} m/rad (lead {:.3} mm/turn), tan(l) = {tan_l:.5}, mu = {mu}",
         p * 2.0 * std::f64::consts::PI as Real * 1000.0
@@ -161,8 +160,17 @@ fn run(o: Opts) -> RunResult {
         o.secs, o.iters
     );
 
-    // Bisection: raising-positive moments; rises(M) is monotone increasing, descends(M)
-    // monotone decreasing.
+    let (m_up, m_down) = bisect_moments(&o)?;
+    print_moments(&o, m_up, m_down);
+    load_alone(&o)?;
+    Ok(())
+}
+
+/// The moments that just raise and just lower the load, by bisection (raising-positive
+/// moments; rises(M) is monotone increasing, descends(M) monotone decreasing).
+fn bisect_moments(o: &Opts) -> Result<(Real, Real), Box<dyn std::error::Error>> {
+    let w = o.mass * G;
+    let (p, r, mu) = (o.pitch, o.radius, o.mu);
     let mut bis = Csv::create(
         &o.out,
         "screw_jack_bisection.csv",
@@ -175,7 +183,7 @@ fn run(o: Opts) -> RunResult {
         let (mut lo, mut hi) = (-2.0 * scale, 2.0 * scale);
         for _ in 0..o.iters {
             let mid = 0.5 * (lo + hi);
-            let e = jack(&o, mu, mid, |_, _| Ok(()))?;
+            let e = jack(o, mu, mid, |_, _| Ok(()))?;
             bis.row(&[sign, mid, e.u_z])?;
             // For a raise search `moved` at mid means the threshold is below mid.
             if moved(e.u_z) == (sign > 0.0) {
@@ -191,6 +199,15 @@ fn run(o: Opts) -> RunResult {
     let m_down = search(-1.0)?;
     println!("wrote {}", bis.finish()?.display());
 
+    Ok((m_up, m_down))
+}
+
+/// The measured moments beside the textbook and the model's.
+fn print_moments(o: &Opts, m_up: Real, m_down: Real) {
+    let w = o.mass * G;
+    let (p, r, mu) = (o.pitch, o.radius, o.mu);
+    let tan_l = p / r;
+    let c = mu * (r * r + p * p) / r;
     let raise_book = w * r * (tan_l + mu) / (1.0 - mu * tan_l);
     let lower_book = w * r * (mu - tan_l) / (1.0 + mu * tan_l);
     let (raise_model, lower_model) = (w * (p + c), w * (c - p));
@@ -215,8 +232,12 @@ fn run(o: Opts) -> RunResult {
     println!(
         "(to lower < 0: the jack is not self-locking and needs a holding moment of -T to stay put)"
     );
+}
 
-    // The load alone: the given mu and a contrasting one across tan(l).
+/// The load alone (no `FJ`): the given mu and a contrasting one across tan(l).
+fn load_alone(o: &Opts) -> Result<(), Box<dyn std::error::Error>> {
+    let (p, r, mu) = (o.pitch, o.radius, o.mu);
+    let tan_l = p / r;
     let contrast = if mu > tan_l { 0.5 * tan_l } else { 2.0 * tan_l };
     let mut load = Csv::create(
         &o.out,
@@ -228,7 +249,7 @@ fn run(o: Opts) -> RunResult {
         o.secs, "mu", "expected", "u_z m", "a m/s^2", "a model", "a err"
     );
     for m in [mu, contrast] {
-        let e = jack(&o, m, 0.0, |t, out| {
+        let e = jack(o, m, 0.0, |t, out| {
             let f = out.friction.unwrap_or_default();
             load.row(&[
                 m,

@@ -99,98 +99,8 @@ fn exact_x(phi: Real) -> Real {
 fn run(o: Opts) -> RunResult {
     let mut summary = Vec::new();
     for &driven in &o.modes {
-        let mode = if driven { "driven" } else { "free" };
         for &backend in &o.backends {
-            let settings = WorldSettings {
-                dt: o.dt,
-                substeps: o.substeps,
-                backend,
-                ..Default::default()
-            };
-            println!("\n## {mode}, {}", backend.name());
-            let built = benchmarks::slider_crank_with(settings, o.rod_slider).and_then(|mut b| {
-                if driven {
-                    let crank = b.joints[0];
-                    let drive = DriveProfile::constant_rate(o.rate);
-                    b.world.set_drive(crank, Dof::RotX, drive)?;
-                }
-                Ok(b)
-            });
-            let mut b = match built {
-                Ok(b) => b,
-                Err(e) => {
-                    println!("{e}");
-                    summary.push(format!("{:<7} {:<18} {e}", mode, backend.name()));
-                    continue;
-                }
-            };
-            let mut csv = Csv::create(
-                &o.out,
-                &format!("slider_crank_{mode}_{}.csv", backend.name()),
-                &[
-                    "t",
-                    "crank",
-                    "x",
-                    "x_exact",
-                    "energy",
-                    "dE_scale",
-                    "gap",
-                    "crank_force",
-                    "crank_moment_x",
-                ],
-            )?;
-            println!(
-                "{:>6} {:>10} {:>9} {:>11} {:>11} {:>9} {:>10} {:>11}",
-                "t s", "crank deg", "x m", "x - exact", "dE/scale", "gap m", "|F| N", "Mx N m"
-            );
-            let n = common::steps(o.secs, o.dt);
-            let (mut energies, mut gap, mut xerr, mut busy) =
-                (Vec::with_capacity(n), 0.0 as Real, 0.0 as Real, 0.0);
-            let mut status = "ok".to_string();
-            for s in 1..=n {
-                let t0 = Instant::now();
-                let r = b.world.step();
-                busy += t0.elapsed().as_secs_f64();
-                if let Err(e) = r {
-                    status = format!("failed at step {s}: {e}");
-                    break;
-                }
-                let t = b.world.time();
-                let crank = *b.world.output(b.joints[0])?;
-                // Driven: the prescribed angle; free: the simulated one.
-                let phi = if driven { o.rate * t } else { crank.rotation.x };
-                let (x, xe) = (b.probe_position().x, exact_x(phi));
-                let (e, g) = (b.energy(), b.max_gap()?);
-                let de = (e - b.initial_energy) / b.energy_scale;
-                energies.push(e);
-                gap = gap.max(g);
-                xerr = xerr.max((x - xe).abs());
-                let (f, mx) = (crank.force.length(), crank.moment.x);
-                csv.row(&[t, crank.rotation.x, x, xe, e, de, g, f, mx])?;
-                if s % (n / 10).max(1) == 0 {
-                    println!(
-                        "{t:>6.2} {:>10.2} {x:>9.5} {:>+11.2e} {de:>+11.2e} {g:>9.1e} {f:>10.4} {mx:>+11.4e}",
-                        crank.rotation.x.to_degrees(),
-                        x - xe
-                    );
-                }
-                if !g.is_finite() || g > 1.0 || !e.is_finite() {
-                    status = format!("blew up at t = {t:.2} s");
-                    break;
-                }
-            }
-            println!("wrote {}", csv.finish()?.display());
-            let us = busy * 1e6 / energies.len().max(1) as f64;
-            // The drive does work: no energy figure for driven runs.
-            let drift = if driven {
-                "-".to_string()
-            } else {
-                format!("{:+.2e}", common::drift(&energies, b.energy_scale))
-            };
-            summary.push(format!(
-                "{mode:<7} {:<18} {xerr:>12.2e} {drift:>11} {gap:>10.1e} {us:>9.1}  {status}",
-                backend.name()
-            ));
+            summary.push(run_backend(&o, driven, backend)?);
         }
     }
     println!(
@@ -201,4 +111,105 @@ fn run(o: Opts) -> RunResult {
         println!("{s}");
     }
     Ok(())
+}
+
+/// The CSV's columns.
+const COLUMNS: [&str; 9] = [
+    "t",
+    "crank",
+    "x",
+    "x_exact",
+    "energy",
+    "dE_scale",
+    "gap",
+    "crank_force",
+    "crank_moment_x",
+];
+
+/// One run (driven or free, one backend): its table, CSV and summary line.
+fn run_backend(
+    o: &Opts,
+    driven: bool,
+    backend: Backend,
+) -> Result<String, Box<dyn std::error::Error>> {
+    let mode = if driven { "driven" } else { "free" };
+    let settings = WorldSettings {
+        dt: o.dt,
+        substeps: o.substeps,
+        backend,
+        ..Default::default()
+    };
+    println!("\n## {mode}, {}", backend.name());
+    let built = benchmarks::slider_crank_with(settings, o.rod_slider).and_then(|mut b| {
+        if driven {
+            let crank = b.joints[0];
+            let drive = DriveProfile::constant_rate(o.rate);
+            b.world.set_drive(crank, Dof::RotX, drive)?;
+        }
+        Ok(b)
+    });
+    let mut b = match built {
+        Ok(b) => b,
+        Err(e) => {
+            println!("{e}");
+            return Ok(format!("{:<7} {:<18} {e}", mode, backend.name()));
+        }
+    };
+    let mut csv = Csv::create(
+        &o.out,
+        &format!("slider_crank_{mode}_{}.csv", backend.name()),
+        &COLUMNS,
+    )?;
+    println!(
+        "{:>6} {:>10} {:>9} {:>11} {:>11} {:>9} {:>10} {:>11}",
+        "t s", "crank deg", "x m", "x - exact", "dE/scale", "gap m", "|F| N", "Mx N m"
+    );
+    let n = common::steps(o.secs, o.dt);
+    let (mut energies, mut gap, mut xerr, mut busy) =
+        (Vec::with_capacity(n), 0.0 as Real, 0.0 as Real, 0.0);
+    let mut status = "ok".to_string();
+    for s in 1..=n {
+        let t0 = Instant::now();
+        let r = b.world.step();
+        busy += t0.elapsed().as_secs_f64();
+        if let Err(e) = r {
+            status = format!("failed at step {s}: {e}");
+            break;
+        }
+        let t = b.world.time();
+        let crank = *b.world.output(b.joints[0])?;
+        // Driven: the prescribed angle; free: the simulated one.
+        let phi = if driven { o.rate * t } else { crank.rotation.x };
+        let (x, xe) = (b.probe_position().x, exact_x(phi));
+        let (e, g) = (b.energy(), b.max_gap()?);
+        let de = (e - b.initial_energy) / b.energy_scale;
+        energies.push(e);
+        gap = gap.max(g);
+        xerr = xerr.max((x - xe).abs());
+        let (f, mx) = (crank.force.length(), crank.moment.x);
+        csv.row(&[t, crank.rotation.x, x, xe, e, de, g, f, mx])?;
+        if s % (n / 10).max(1) == 0 {
+            println!(
+                "{t:>6.2} {:>10.2} {x:>9.5} {:>+11.2e} {de:>+11.2e} {g:>9.1e} {f:>10.4} {mx:>+11.4e}",
+                crank.rotation.x.to_degrees(),
+                x - xe
+            );
+        }
+        if !g.is_finite() || g > 1.0 || !e.is_finite() {
+            status = format!("blew up at t = {t:.2} s");
+            break;
+        }
+    }
+    println!("wrote {}", csv.finish()?.display());
+    let us = busy * 1e6 / energies.len().max(1) as f64;
+    // The drive does work: no energy figure for driven runs.
+    let drift = if driven {
+        "-".to_string()
+    } else {
+        format!("{:+.2e}", common::drift(&energies, b.energy_scale))
+    };
+    Ok(format!(
+        "{mode:<7} {:<18} {xerr:>12.2e} {drift:>11} {gap:>10.1e} {us:>9.1}  {status}",
+        backend.name()
+    ))
 }

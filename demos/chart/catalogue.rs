@@ -1,0 +1,259 @@
+//! The methods (backends, integrators, penalty stiffnesses) and scenes of the study, and how a
+//! scene is built for a method.
+
+use super::*;
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum Method {
+    Lagrange,
+    /// The Lagrange backend with the second-order integrator (RATTLE).
+    Rattle,
+    Penalty(f64),
+    Impulse,
+    Multibody,
+}
+
+pub(crate) const METHODS: [Method; 7] = [
+    Method::Lagrange,
+    Method::Rattle,
+    Method::Penalty(1e4),
+    Method::Penalty(1e6),
+    Method::Penalty(1e8),
+    Method::Impulse,
+    Method::Multibody,
+];
+
+impl Method {
+    pub(crate) fn name(self) -> String {
+        match self {
+            Method::Lagrange => "lagrange".into(),
+            Method::Rattle => "lagrange-rattle".into(),
+            Method::Penalty(k) => format!("penalty-{k:.0e}"),
+            Method::Impulse => "rapier-impulse".into(),
+            Method::Multibody => "rapier-multibody".into(),
+        }
+    }
+
+    pub(crate) fn backend(self) -> Backend {
+        match self {
+            Method::Lagrange | Method::Rattle | Method::Penalty(_) => Backend::Lagrange,
+            Method::Impulse => Backend::RapierImpulse,
+            Method::Multibody => Backend::RapierMultibody,
+        }
+    }
+
+    pub(crate) fn color(self) -> RGBColor {
+        match self {
+            Method::Lagrange => RGBColor(31, 119, 180),
+            Method::Rattle => RGBColor(148, 103, 189),
+            Method::Penalty(k) if k < 1e5 => RGBColor(255, 187, 120),
+            Method::Penalty(k) if k < 1e7 => RGBColor(255, 127, 14),
+            Method::Penalty(_) => RGBColor(140, 86, 75),
+            Method::Impulse => RGBColor(214, 39, 40),
+            Method::Multibody => RGBColor(44, 160, 44),
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum Scene {
+    A01,
+    Conical,
+    A02,
+    A04,
+    Chain,
+    SliderCrank,
+}
+
+pub(crate) const SCENES: [Scene; 6] = [
+    Scene::A01,
+    Scene::Conical,
+    Scene::A02,
+    Scene::A04,
+    Scene::Chain,
+    Scene::SliderCrank,
+];
+
+impl Scene {
+    pub(crate) fn index(self) -> usize {
+        SCENES.iter().position(|s| *s == self).unwrap_or(0)
+    }
+
+    pub(crate) fn key(self) -> &'static str {
+        match self {
+            Scene::A01 => "a01_pendulum",
+            Scene::Conical => "conical_pendulum",
+            Scene::A02 => "a02_four_bar",
+            Scene::A04 => "a04_bricard",
+            Scene::Chain => "chain",
+            Scene::SliderCrank => "slider_crank",
+        }
+    }
+
+    pub(crate) fn title(self, cfg: &Config) -> String {
+        let d = cfg.durations[self.index()];
+        match self {
+            Scene::A01 => format!("A01 pendulum, {d} s (spec 2000 s), bob x, y vs exact"),
+            Scene::Conical => format!("conical pendulum 45 deg (spherical), {d} s, bob vs exact"),
+            Scene::A02 => format!("A02 four-bar N=1, {d} s (spec 20 s), B0 x, y vs exact"),
+            Scene::A04 => format!("A04 Bricard, {d} s, P3 vs converged Lagrange"),
+            Scene::Chain => format!(
+                "chain {} links 1:1000, {d} s, end bead vs converged Lagrange",
+                cfg.chain_links
+            ),
+            Scene::SliderCrank => {
+                format!("slider-crank (spherical rod-slider), {d} s, slider vs converged Lagrange")
+            }
+        }
+    }
+
+    /// Characteristic length (m): a gap above a tenth of it is a failure.
+    pub(crate) fn length(self) -> f64 {
+        match self {
+            Scene::A01 | Scene::Conical | Scene::A02 | Scene::A04 => 1.0,
+            Scene::Chain => benchmarks::CHAIN_LINK_LENGTH as f64,
+            Scene::SliderCrank => 0.08,
+        }
+    }
+
+    pub(crate) fn build(
+        self,
+        cfg: &Config,
+        settings: WorldSettings,
+    ) -> Result<Benchmark, rapier3d_mpc184::Error> {
+        match self {
+            Scene::A01 => pendulum_benchmark(settings),
+            Scene::Conical => conical_benchmark(settings),
+            Scene::A02 => benchmarks::four_bar_parallelogram(settings),
+            Scene::A04 => benchmarks::bricard(settings),
+            Scene::Chain => chain(settings, cfg.chain_links, 1000.0),
+            Scene::SliderCrank => {
+                benchmarks::slider_crank_with(settings, RodSliderJoint::Spherical)
+            }
+        }
+    }
+}
+
+/// Pendulum of A01 as a [`Benchmark`]: 1 kg bob (inertia 1e-4 kg m^2) 1 m from a revolute z
+/// joint, released horizontally; energy scale m g L.
+pub(crate) fn pendulum_benchmark(
+    settings: WorldSettings,
+) -> Result<Benchmark, rapier3d_mpc184::Error> {
+    let p = scenes::pendulum(
+        settings,
+        Axis::Z,
+        1.0,
+        std::f64::consts::FRAC_PI_2 as Real,
+        1.0,
+        PENDULUM_INERTIA as Real,
+    )?;
+    let e0 = p.world.kinetic_energy() + p.world.potential_energy();
+    Ok(Benchmark {
+        world: p.world,
+        bodies: vec![p.bob],
+        joints: vec![p.joint],
+        joint_bodies: vec![[None, Some(p.bob)]],
+        initial_energy: e0,
+        energy_scale: p.mass * G * p.length,
+        probe: Probe {
+            body: p.bob,
+            local: Vector::ZERO,
+        },
+        duration: 10.0,
+    })
+}
+
+pub(crate) const PENDULUM_INERTIA: f64 = 1e-4;
+
+/// Half-angle of the conical pendulum (rad).
+pub(crate) const CONICAL_ALPHA: f64 = std::f64::consts::FRAC_PI_4;
+
+/// Conical pendulum: 1 kg bob (isotropic inertia 1e-4 kg m^2) 1 m from a grounded spherical
+/// joint, 45 deg from the vertical, in its exact steady precession `Omega^2 = g / (L cos alpha)`
+/// about +Y (the isotropic bob spins with the rod, so the point-mass rate holds exactly);
+/// energy scale: its kinetic energy `m (Omega L sin alpha)^2 / 2`.
+pub(crate) fn conical_benchmark(
+    settings: WorldSettings,
+) -> Result<Benchmark, rapier3d_mpc184::Error> {
+    let (world, bob, joint) = scenes::conical_pendulum(
+        settings,
+        1.0,
+        CONICAL_ALPHA as Real,
+        1.0,
+        PENDULUM_INERTIA as Real,
+    )?;
+    let e0 = world.kinetic_energy() + world.potential_energy();
+    let omega2 = G / CONICAL_ALPHA.cos() as Real;
+    let r = CONICAL_ALPHA.sin() as Real;
+    Ok(Benchmark {
+        world,
+        bodies: vec![bob],
+        joints: vec![joint],
+        joint_bodies: vec![[None, Some(bob)]],
+        initial_energy: e0,
+        energy_scale: 0.5 * omega2 * r * r,
+        probe: Probe {
+            body: bob,
+            local: Vector::ZERO,
+        },
+        duration: 10.0,
+    })
+}
+
+pub(crate) fn chain(
+    settings: WorldSettings,
+    n: usize,
+    ratio: f64,
+) -> Result<Benchmark, rapier3d_mpc184::Error> {
+    benchmarks::chain(
+        settings,
+        n,
+        benchmarks::CHAIN_LINK_LENGTH,
+        benchmarks::CHAIN_LINK_MASS,
+        ratio as Real,
+        20f64.to_radians() as Real,
+    )
+}
+
+pub(crate) fn settings(method: Method, dt: f64, substeps: usize) -> WorldSettings {
+    WorldSettings {
+        dt: dt as Real,
+        substeps,
+        backend: method.backend(),
+        integrator: if method == Method::Rattle {
+            Integrator::Rattle
+        } else {
+            Integrator::SymplecticEuler
+        },
+    }
+}
+
+/// Builds `scene` for `method` (`None`: the method does not take the scene).
+pub(crate) fn build(
+    scene: Scene,
+    cfg: &Config,
+    method: Method,
+    dt: f64,
+    substeps: usize,
+) -> Option<Benchmark> {
+    with_method(
+        scene.build(cfg, settings(method, dt, substeps)).ok()?,
+        method,
+    )
+}
+
+/// `b` with its joints turned into penalty joints when `method` is a penalty method (`None`
+/// where that fails).
+pub(crate) fn with_method(mut b: Benchmark, method: Method) -> Option<Benchmark> {
+    if let Method::Penalty(k) = method {
+        let k = -(k as Real);
+        b.set_method(ConstraintMethod::Penalty { disp: k, rot: k })
+            .ok()?;
+    }
+    Some(b)
+}
+
+pub(crate) fn probe(b: &Benchmark) -> [f64; 3] {
+    let p = b.probe_position();
+    [p.x as f64, p.y as f64, p.z as f64]
+}

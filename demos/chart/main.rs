@@ -1,0 +1,355 @@
+//! `cargo run --release --features charts --bin chart -- [--quick] [--out DIR]`
+//!
+//! The work-precision study (issue 7, item 3): for each scene (IFToMM A01 pendulum, A02
+//! parallelogram four-bar, A04 Bricard, a 100-link chain with a 1:1000 end mass, the IFToMM
+//! spatial slider-crank) and each method (Lagrange; penalty at k = 1e4, 1e6, 1e8; Rapier impulse;
+//! Rapier multibody where it takes the scene), over a sweep of dt and substeps, it measures the
+//! error against a reference and the CPU time per simulated second, and draws:
+//!
+//! - `runs.csv`: every run (scene, method, dt, substeps, `cpu_s_per_sim_s`, `traj_err`,
+//!   `energy_drift`, `max_gap`, status);
+//! - `wp_<scene>.{png,svg}` (trajectory error against CPU time) and `energy_<scene>.{png,svg}`
+//!   (energy error against CPU time): log-log, one line per method through its own best runs,
+//!   the Pareto front over all methods ringed, failed runs as crosses along the top, the IFToMM
+//!   precision levels 1e-1 and 1e-3 and the real-time line (1 CPU second per simulated second);
+//! - `stability_chain.{png,svg}`: the chain's end-mass ratio (1..1000) x substeps (1..8) at
+//!   dt = 1/60 for each method, each cell ok / gap > 1 cm / blew up;
+//! - `stability_penalty.{png,svg}` (and `.csv`): the A01 pendulum with a penalty revolute
+//!   (KEYOPT(2) = 1), stiffness 1e2..1e10 (plus Lagrange, k = infinity) x dt 1/30..1/960 at one
+//!   substep, 5 s against the exact pendulum: each cell blew up / joint gap > 0.1 m (the
+//!   soft joint's deflection; the run stops there) / error > 1e-1 m / <= 1e-1 m / <= 1e-3 m (the
+//!   IFToMM levels), labelled with the error;
+//! - `stability_singular.{png,svg}` (and `.csv`): the A02 parallelogram four-bar released at
+//!   rest at `delta` = 1e-4..1 rad above its singular pose (cranks collinear with the ground
+//!   link), so that it crawls through that pose and through the opposite one (`theta = -pi`),
+//!   x dt 1/30..1/960 at one substep, 4 s against the exact motion (RK4), per method: blew up /
+//!   branch switch (the coupler turns by more than 0.5 rad: the anti-parallelogram branch) /
+//!   error > 1e-1 m (stuck, turned back or out of phase) / <= 1e-1 m / <= 1e-3 m;
+//! - `scaling_chain.{png,svg}`: cost per step against the number of links (10..1000);
+//! - `summary.md`: per scene the Pareto front, the cheapest run of each method reaching 1e-1 and
+//!   1e-3, and where each method fails.
+//!
+//! Metrics of a run (one world stepped at `dt` with `substeps`):
+//! - `traj_err`: as IFToMM scores it, the largest deviation of any coordinate of the scene's
+//!   probe point from the reference, over output steps every 1/30 s (m; absolute, the udc
+//!   specifications compare the point's coordinates in metres);
+//! - `energy_drift`: the largest `|E - E0|` over the output steps, divided by the scene's energy
+//!   scale (`Benchmark::energy_scale`);
+//! - `max_gap`: the largest translational joint gap seen at the output steps (m);
+//! - `cpu_s_per_sim_s`: wall-clock time of the `step()` calls only (single thread), divided by
+//!   the simulated time reached.
+//!
+//! A run fails (status `failed: ...`, a cross in the charts) on a step error, a non-finite value,
+//! a gap above a tenth of the scene's length (`SceneSpec::length`), an energy error above 10 times
+//! the scale, or (four-bar) the coupler turning by more than 0.5 rad: a branch switch at the
+//! singular position. A run whose cost, estimated from its first steps, would exceed the per-run
+//! budget is `skipped` (Rapier multibody on the long chain at small steps).
+//!
+//! References: A01 and A02 are 1-DOF problems integrated here by RK4 at h = 1/122880 s (the
+//! pendulum `theta'' = -(m g L / I_p) sin theta` with the bob's own 1e-4 kg m^2 in `I_p`; the
+//! four-bar `theta'' = -(6 g / 5) cos theta`). A04, the chain and the slider-crank use a Lagrange
+//! run at a quarter of the sweep's smallest substep; a second run at twice that step estimates
+//! the reference's own error (printed as the "reference floor").
+
+use std::error::Error;
+use std::fmt::Write as _;
+use std::io::{IsTerminal, Write};
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::time::Instant;
+
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use rapier3d_mpc184::prelude::*;
+use rapier3d_mpc184::studies::benchmarks::{self, Benchmark, Probe, RodSliderJoint};
+use rapier3d_mpc184::studies::scenes::{self, G};
+
+mod catalogue;
+mod config;
+mod maps;
+mod measure;
+mod plot;
+mod reference;
+mod summary;
+
+use catalogue::*;
+use config::*;
+use maps::*;
+use measure::*;
+use plot::*;
+use reference::*;
+use summary::*;
+
+type DynResult<T> = Result<T, Box<dyn Error>>;
+
+const HELP: &str = "chart: the work-precision study (error against CPU time) of every backend
+
+Runs IFToMM A01 (pendulum), A02 (parallelogram four-bar), A04 (Bricard), a 100-link chain
+with a 1:1000 end mass and the spatial slider-crank on Lagrange, penalty (k = 1e4, 1e6, 1e8),
+Rapier impulse and Rapier multibody joints over dt = 1/30..1/960 and 1, 2, 4, 8 substeps; writes
+runs.csv, work-precision charts, stability maps (chain end-mass ratio x substeps, penalty
+stiffness x dt, four-bar start distance from its singular pose x dt), a cost-against-N chart
+(PNG and SVG) and summary.md. The full sweep takes about 10 minutes on 2 cores.
+
+OPTIONS:
+    --quick      a short sweep (2 step sizes, 2 substep counts, 1 s scenes, 20-link chain)
+    --maps       only the three stability maps (their charts, CSVs and summary sections)
+    --out DIR    output directory (default docs/charts)
+    --help       this text";
+
+/// Bundled font (`DejaVu` Sans, Bitstream Vera licence: `assets/fonts/DejaVuSans-LICENSE.txt`):
+/// plotters renders text with `ab_glyph` from these bytes, no system font needed.
+static FONT: &[u8] = include_bytes!("../../assets/fonts/DejaVuSans.ttf");
+
+/// Output steps of the trajectory comparison (s): every dt of the sweep divides it.
+const OUTPUT_STEP: f64 = 1.0 / 30.0;
+
+fn main() -> ExitCode {
+    let mut quick = false;
+    let mut maps = false;
+    let mut out = PathBuf::from("docs/charts");
+    let mut args = std::env::args().skip(1);
+    while let Some(a) = args.next() {
+        match a.as_str() {
+            "--help" | "-h" => {
+                println!("{HELP}");
+                return ExitCode::SUCCESS;
+            }
+            "--quick" => quick = true,
+            "--maps" => maps = true,
+            "--out" => match args.next() {
+                Some(d) => out = PathBuf::from(d),
+                None => return usage("--out needs a value"),
+            },
+            _ => return usage(&format!("unexpected argument `{a}`")),
+        }
+    }
+    let cfg = Config {
+        maps_only: maps,
+        ..Config::new(quick)
+    };
+    match run(&cfg, &out) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("chart: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn usage(msg: &str) -> ExitCode {
+    eprintln!("chart: {msg}\n\n{HELP}");
+    ExitCode::from(2)
+}
+
+/// Progress reporting: `\r` on a terminal, plain lines otherwise.
+struct Progress {
+    total: usize,
+    done: usize,
+    start: Instant,
+    tty: bool,
+}
+
+impl Progress {
+    fn tick(&mut self, what: &str) {
+        self.done += 1;
+        let line = format!(
+            "[{:>4}/{}] {:>6.0} s  {what}",
+            self.done,
+            self.total,
+            self.start.elapsed().as_secs_f64()
+        );
+        let mut err = std::io::stderr();
+        if self.tty {
+            let _ = write!(err, "\r{line:<100}");
+            let _ = err.flush();
+        } else {
+            let _ = writeln!(err, "{line}");
+        }
+    }
+
+    fn finish(&self) {
+        if self.tty {
+            eprintln!();
+        }
+    }
+}
+
+fn run(cfg: &Config, out: &Path) -> DynResult<()> {
+    plotters::style::register_font("sans-serif", FontStyle::Normal, FONT)
+        .map_err(|_| "the bundled font does not load")?;
+    std::fs::create_dir_all(out)?;
+    let wp_runs = SCENES.len() * METHODS.len() * cfg.rates.len() * cfg.substeps.len();
+    let stab = METHODS.len() * cfg.stability_ratios.len() * cfg.substeps.len();
+    let scal = 4 * cfg.scaling_n.len();
+    let pen = (cfg.penalty_ks.len() + 1) * cfg.penalty_rates.len();
+    let sing = METHODS.len() * cfg.singular_deltas.len() * cfg.singular_rates.len();
+    let mut progress = Progress {
+        total: if cfg.maps_only {
+            stab + pen + sing
+        } else {
+            SCENES.len() + wp_runs + stab + scal + pen + sing
+        },
+        done: 0,
+        start: Instant::now(),
+        tty: std::io::stderr().is_terminal(),
+    };
+    if cfg.maps_only {
+        return maps_only(cfg, out, &mut progress);
+    }
+    let (runs, refs) = sweep(cfg, &mut progress)?;
+    let stability = stability_map(cfg, &mut progress);
+    let penalty = penalty_map(cfg, &mut progress);
+    let singular = singular_map(cfg, &mut progress);
+    let scaling = scaling(cfg, &mut progress);
+    progress.finish();
+    let wall = progress.start.elapsed().as_secs_f64();
+
+    let mut files = Vec::new();
+    write_csv(&out.join("runs.csv"), &runs)?;
+    files.push("runs.csv".to_string());
+    draw_work_precision(cfg, out, &runs, &mut files)?;
+    Chart::Stability(cfg, &stability).save(out, "stability_chain", (1000, 680), &mut files)?;
+    Chart::Penalty(cfg, &penalty).save(out, "stability_penalty", (900, 640), &mut files)?;
+    Chart::Singular(cfg, &singular).save(out, "stability_singular", (1100, 720), &mut files)?;
+    write_map_csv(&out.join("stability_penalty.csv"), &penalty)?;
+    write_map_csv(&out.join("stability_singular.csv"), &singular)?;
+    files.push("stability_penalty.csv".into());
+    files.push("stability_singular.csv".into());
+    Chart::Scaling(&scaling).save(out, "scaling_chain", (900, 600), &mut files)?;
+    let mut summary = summary(cfg, &runs, &refs, &stability, &scaling, wall);
+    map_summary(&mut summary, cfg, &penalty, &singular);
+    std::fs::write(out.join("summary.md"), &summary)?;
+    files.push("summary.md".into());
+    println!("{summary}");
+    println!(
+        "wrote {} files to {}: {}",
+        files.len(),
+        out.display(),
+        files.join(" ")
+    );
+    Ok(())
+}
+
+/// `--maps`: the three stability maps only.
+fn maps_only(cfg: &Config, out: &Path, progress: &mut Progress) -> DynResult<()> {
+    let stability = stability_map(cfg, progress);
+    let penalty = penalty_map(cfg, progress);
+    let singular = singular_map(cfg, progress);
+    progress.finish();
+    let wall = progress.start.elapsed().as_secs_f64();
+    let mut files = Vec::new();
+    Chart::Stability(cfg, &stability).save(out, "stability_chain", (1000, 680), &mut files)?;
+    Chart::Penalty(cfg, &penalty).save(out, "stability_penalty", (900, 640), &mut files)?;
+    Chart::Singular(cfg, &singular).save(out, "stability_singular", (1100, 720), &mut files)?;
+    write_map_csv(&out.join("stability_penalty.csv"), &penalty)?;
+    write_map_csv(&out.join("stability_singular.csv"), &singular)?;
+    files.push("stability_penalty.csv".into());
+    files.push("stability_singular.csv".into());
+    let mut s = format!("# Stability maps\n\nWall time {wall:.0} s.\n");
+    map_summary(&mut s, cfg, &penalty, &singular);
+    println!("{s}");
+    println!(
+        "wrote {} files to {}: {}",
+        files.len(),
+        out.display(),
+        files.join(" ")
+    );
+    Ok(())
+}
+
+/// How a scene's reference was made, and its own error (m).
+type RefNote = (Scene, String, f64);
+
+/// The work-precision sweep: every scene's reference, then every method, rate and substep
+/// count on it.
+fn sweep(cfg: &Config, progress: &mut Progress) -> DynResult<(Vec<Run>, Vec<RefNote>)> {
+    let mut runs = Vec::new();
+    let mut refs = Vec::new();
+    for scene in SCENES {
+        let r = reference(scene, cfg)?;
+        progress.tick(&format!("{} reference", scene.key()));
+        for method in METHODS {
+            for &rate in &cfg.rates {
+                for &sub in &cfg.substeps {
+                    let dt = 1.0 / rate as f64;
+                    progress.tick(&format!(
+                        "{} {} 1/{rate} x{sub}",
+                        scene.key(),
+                        method.name()
+                    ));
+                    let Some(b) = build(scene, cfg, method, dt, sub) else {
+                        continue;
+                    };
+                    let secs = cfg.durations[scene.index()];
+                    let (cpu, traj, energy, gap, status) = simulate(
+                        scene,
+                        b,
+                        dt,
+                        secs,
+                        Some(&r.points),
+                        cfg.budget,
+                        0.1 * scene.length(),
+                    );
+                    runs.push(Run {
+                        scene,
+                        method,
+                        dt,
+                        substeps: sub,
+                        cpu,
+                        traj,
+                        energy,
+                        gap,
+                        status,
+                    });
+                }
+            }
+        }
+        refs.push((scene, r.how, r.floor));
+    }
+    Ok((runs, refs))
+}
+
+/// The work-precision, energy and order charts of every scene.
+fn draw_work_precision(
+    cfg: &Config,
+    out: &Path,
+    runs: &[Run],
+    files: &mut Vec<String>,
+) -> DynResult<()> {
+    for scene in SCENES {
+        let rs: Vec<&Run> = runs.iter().filter(|r| r.scene == scene).collect();
+        let title = scene.title(cfg);
+        for (kind, y_desc) in [
+            ("wp", "trajectory error: max coordinate deviation (m)"),
+            ("energy", "max |E - E0| / E_scale"),
+        ] {
+            let name = format!("{kind}_{}", scene.key());
+            let caption = if kind == "wp" {
+                title.clone()
+            } else {
+                format!("{}: energy error", title.split(',').next().unwrap_or(""))
+            };
+            let chart = Chart::WorkPrecision {
+                caption: &caption,
+                y_desc,
+                runs: &rs,
+                energy: kind == "energy",
+            };
+            chart.save(out, &name, (960, 640), files)?;
+        }
+    }
+    for scene in [Scene::A01, Scene::Conical, Scene::A02] {
+        let rs: Vec<&Run> = runs.iter().filter(|r| r.scene == scene).collect();
+        let caption = format!(
+            "{}: error against substep",
+            scene.title(cfg).split(',').next().unwrap_or("")
+        );
+        Chart::Convergence {
+            caption: &caption,
+            runs: &rs,
+        }
+        .save(out, &format!("order_{}", scene.key()), (960, 640), files)?;
+    }
+    Ok(())
+}

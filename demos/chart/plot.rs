@@ -1,0 +1,705 @@
+//! The charts, drawn on any plotters backend (PNG and SVG).
+
+use super::*;
+
+/// The charts, each drawn on any plotters backend.
+pub(crate) enum Chart<'a> {
+    WorkPrecision {
+        caption: &'a str,
+        y_desc: &'a str,
+        runs: &'a [&'a Run],
+        /// Energy error instead of the trajectory error (no IFToMM levels).
+        energy: bool,
+    },
+    Stability(&'a Config, &'a [Cell]),
+    Penalty(&'a Config, &'a [MapCell]),
+    Singular(&'a Config, &'a [MapCell]),
+    Scaling(&'a [Cost]),
+    /// Trajectory error against the substep h (the order of each method).
+    Convergence {
+        caption: &'a str,
+        runs: &'a [&'a Run],
+    },
+}
+
+impl Chart<'_> {
+    /// Draws `name.png` and `name.svg` into `out`.
+    pub(crate) fn save(
+        &self,
+        out: &Path,
+        name: &str,
+        size: (u32, u32),
+        files: &mut Vec<String>,
+    ) -> DynResult<()> {
+        let png = out.join(format!("{name}.png"));
+        self.draw(BitMapBackend::new(&png, size).into_drawing_area())?;
+        let svg = out.join(format!("{name}.svg"));
+        self.draw(SVGBackend::new(&svg, size).into_drawing_area())?;
+        files.push(format!("{name}.png"));
+        files.push(format!("{name}.svg"));
+        Ok(())
+    }
+
+    pub(crate) fn draw<DB: DrawingBackend>(&self, root: DrawingArea<DB, Shift>) -> DynResult<()>
+    where
+        DB::ErrorType: 'static,
+    {
+        root.fill(&WHITE)?;
+        match self {
+            Chart::WorkPrecision {
+                caption,
+                y_desc,
+                runs,
+                energy,
+            } => work_precision(&root, caption, y_desc, runs, *energy)?,
+            Chart::Stability(cfg, cells) => draw_stability(&root, cfg, cells)?,
+            Chart::Penalty(cfg, cells) => draw_penalty(&root, cfg, cells)?,
+            Chart::Singular(cfg, cells) => draw_singular(&root, cfg, cells)?,
+            Chart::Scaling(costs) => draw_scaling(&root, costs)?,
+            Chart::Convergence { caption, runs } => draw_convergence(&root, caption, runs)?,
+        }
+        root.present()?;
+        Ok(())
+    }
+}
+
+/// Per method, the smallest trajectory error at each substep size `h = dt / substeps` (ok runs).
+pub(crate) fn by_substep(runs: &[&Run], method: Method) -> Vec<(f64, f64)> {
+    let mut pts: Vec<(f64, f64)> = Vec::new();
+    for r in runs.iter().filter(|r| r.method == method && r.ok()) {
+        let h = r.dt / r.substeps as f64;
+        let e = r.traj.max(ERR_FLOOR);
+        match pts.iter_mut().find(|(x, _)| (x / h - 1.0).abs() < 1e-9) {
+            Some(p) => p.1 = p.1.min(e),
+            None => pts.push((h, e)),
+        }
+    }
+    pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+    pts
+}
+
+/// Observed order: the least-squares slope of log(error) against log(h) over the points with
+/// an error above `floor` (NaN with fewer than two).
+pub(crate) fn observed_order(pts: &[(f64, f64)], floor: f64) -> f64 {
+    let p: Vec<(f64, f64)> = pts
+        .iter()
+        .filter(|(_, e)| *e > floor)
+        .map(|(h, e)| (h.ln(), e.ln()))
+        .collect();
+    if p.len() < 2 {
+        return f64::NAN;
+    }
+    let n = p.len() as f64;
+    let (mx, my) = (
+        p.iter().map(|q| q.0).sum::<f64>() / n,
+        p.iter().map(|q| q.1).sum::<f64>() / n,
+    );
+    let sxy: f64 = p.iter().map(|q| (q.0 - mx) * (q.1 - my)).sum();
+    let sxx: f64 = p.iter().map(|q| (q.0 - mx) * (q.0 - mx)).sum();
+    sxy / sxx
+}
+
+pub(crate) fn draw_convergence<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    caption: &str,
+    runs: &[&Run],
+) -> DynResult<()>
+where
+    DB::ErrorType: 'static,
+{
+    let all: Vec<(Method, Vec<(f64, f64)>)> = METHODS
+        .iter()
+        .map(|m| (*m, by_substep(runs, *m)))
+        .filter(|(_, p)| !p.is_empty())
+        .collect();
+    let hs = all.iter().flat_map(|(_, p)| p.iter().map(|q| q.0));
+    let (x0, x1) = hs.fold((f64::INFINITY, 0.0f64), |(a, b), h| (a.min(h), b.max(h)));
+    let (x0, x1) = (x0 / 1.5, x1 * 1.5);
+    let es: Vec<f64> = all
+        .iter()
+        .flat_map(|(_, p)| p.iter().map(|q| q.1))
+        .collect();
+    let y0 = es.iter().copied().fold(1e-4, f64::min) / 3.0;
+    let y1 = es.iter().copied().fold(1.0, f64::max) * 5.0;
+    let mut chart = ChartBuilder::on(root)
+        .caption(caption, ("sans-serif", 20))
+        .margin(12)
+        .x_label_area_size(45)
+        .y_label_area_size(70)
+        .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())?;
+    chart
+        .configure_mesh()
+        .x_desc("substep h (s)")
+        .y_desc("trajectory error (m), best run at each h")
+        .x_label_formatter(&|x| format!("{x:.0e}"))
+        .y_label_formatter(&|y| format!("{y:.0e}"))
+        .label_style(("sans-serif", 14))
+        .axis_desc_style(("sans-serif", 15))
+        .light_line_style(WHITE.mix(0.0))
+        .draw()?;
+    // Slope guides through the coarsest point of the first- and second-order Lagrange runs.
+    let gray = RGBColor(120, 120, 120);
+    for (method, slope) in [(Method::Lagrange, 1.0), (Method::Rattle, 2.0)] {
+        if let Some((_, p)) = all.iter().find(|(m, _)| *m == method)
+            && let Some(&(h, e)) = p.last()
+        {
+            let at = |x: f64| e * 2.0 * (x / h).powf(slope);
+            chart.draw_series(LineSeries::new(
+                [(x0, at(x0).max(y0)), (h, at(h))],
+                gray.stroke_width(1),
+            ))?;
+            chart.draw_series(std::iter::once(Text::new(
+                format!("slope {slope:.0}"),
+                (h / 1.4, at(h) * 1.6),
+                ("sans-serif", 13).into_font().color(&gray),
+            )))?;
+        }
+    }
+    for (method, pts) in &all {
+        let c = method.color();
+        let order = observed_order(pts, 1e-9);
+        chart
+            .draw_series(LineSeries::new(pts.iter().copied(), c.stroke_width(2)))?
+            .label(format!("{} (order {order:.2})", method.name()))
+            .legend(move |(x, yy)| PathElement::new([(x, yy), (x + 20, yy)], c.stroke_width(3)));
+        chart.draw_series(pts.iter().map(|&q| Circle::new(q, 3, c.filled())))?;
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::LowerRight)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .label_font(("sans-serif", 13))
+        .draw()?;
+    Ok(())
+}
+
+/// Runs on the Pareto front (no other run both cheaper and more accurate), by CPU time.
+pub(crate) fn pareto<'a>(
+    runs: impl Iterator<Item = &'a Run>,
+    y: impl Fn(&Run) -> f64,
+) -> Vec<&'a Run> {
+    let mut ok: Vec<&Run> = runs.filter(|r| r.ok() && y(r).is_finite()).collect();
+    ok.sort_by(|a, b| a.cpu.total_cmp(&b.cpu));
+    let mut best = f64::INFINITY;
+    let mut front = Vec::new();
+    for r in ok {
+        if y(r) < best {
+            best = y(r);
+            front.push(r);
+        }
+    }
+    front
+}
+
+/// A chart with logarithmic axes.
+type LogChart<'a, DB> = ChartContext<'a, DB, Cartesian2d<LogCoord<f64>, LogCoord<f64>>>;
+
+/// Floor of plotted errors (a run can hit zero to rounding).
+pub(crate) const ERR_FLOOR: f64 = 1e-13;
+
+/// The work-precision chart's guides: the IFToMM precision levels (trajectory error only), the
+/// real-time line and the band of failed runs at `fail_y`; `[x0, x1, y0, y1]` the axes' extent.
+fn draw_guides<DB: DrawingBackend>(
+    chart: &mut LogChart<'_, DB>,
+    [x0, x1, y0, y1]: [f64; 4],
+    fail_y: f64,
+    energy: bool,
+) -> DynResult<()>
+where
+    DB::ErrorType: 'static,
+{
+    let gray = RGBColor(110, 110, 110);
+    if !energy {
+        for (level, label) in [
+            (1e-1, "IFToMM low precision 1e-1 m"),
+            (1e-3, "IFToMM high precision 1e-3 m"),
+        ] {
+            if level > y0 && level < y1 {
+                chart.draw_series(LineSeries::new(
+                    [(x0, level), (x1, level)],
+                    gray.stroke_width(1),
+                ))?;
+                chart.draw_series(std::iter::once(Text::new(
+                    label,
+                    (x0 * 1.1, level * 1.25),
+                    ("sans-serif", 13).into_font().color(&gray),
+                )))?;
+            }
+        }
+    }
+    if 1.0 > x0 && 1.0 < x1 {
+        chart.draw_series(LineSeries::new(
+            [(1.0, y0), (1.0, y1)],
+            BLACK.stroke_width(1),
+        ))?;
+        chart.draw_series(std::iter::once(Text::new(
+            "real time",
+            (1.08, y0 * 2.0),
+            ("sans-serif", 13).into_font(),
+        )))?;
+    }
+    // Failed runs: crosses along the top at their CPU time.
+    chart.draw_series(LineSeries::new(
+        [(x0, fail_y / 1.6), (x1, fail_y / 1.6)],
+        RGBColor(220, 220, 220).stroke_width(1),
+    ))?;
+    chart.draw_series(std::iter::once(Text::new(
+        "failed runs (x)",
+        (x0 * 1.1, fail_y * 1.35),
+        ("sans-serif", 13).into_font().color(&gray),
+    )))?;
+    Ok(())
+}
+
+/// Each method's runs: its Pareto line, its successful runs as dots, its failed runs as crosses
+/// along the top.
+fn draw_methods<DB: DrawingBackend>(
+    chart: &mut LogChart<'_, DB>,
+    shown: &[&Run],
+    x0: f64,
+    fail_y: f64,
+    energy: bool,
+) -> DynResult<()>
+where
+    DB::ErrorType: 'static,
+{
+    let y = |r: &Run| (if energy { r.energy } else { r.traj }).max(ERR_FLOOR);
+    for method in METHODS {
+        let mine: Vec<&Run> = shown
+            .iter()
+            .copied()
+            .filter(|r| r.method == method)
+            .collect();
+        if mine.is_empty() {
+            continue;
+        }
+        let c = method.color();
+        let front = pareto(mine.iter().copied(), y);
+        chart
+            .draw_series(LineSeries::new(
+                front.iter().map(|r| (r.cpu, y(r))),
+                c.stroke_width(2),
+            ))?
+            .label(method.name())
+            .legend(move |(x, yy)| PathElement::new([(x, yy), (x + 20, yy)], c.stroke_width(3)));
+        chart.draw_series(
+            mine.iter()
+                .filter(|r| r.ok())
+                .map(|r| Circle::new((r.cpu, y(r)), 3, c.filled())),
+        )?;
+        chart.draw_series(
+            mine.iter()
+                .filter(|r| r.failed())
+                .map(|r| Cross::new((r.cpu.max(x0), fail_y), 5, c.stroke_width(2))),
+        )?;
+    }
+    Ok(())
+}
+
+pub(crate) fn work_precision<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    caption: &str,
+    y_desc: &str,
+    runs: &[&Run],
+    energy: bool,
+) -> DynResult<()>
+where
+    DB::ErrorType: 'static,
+{
+    let y = |r: &Run| (if energy { r.energy } else { r.traj }).max(ERR_FLOOR);
+    let shown: Vec<&Run> = runs
+        .iter()
+        .copied()
+        .filter(|r| !r.status.starts_with("skipped"))
+        .collect();
+    let cpus: Vec<f64> = shown.iter().map(|r| r.cpu).filter(|c| *c > 0.0).collect();
+    let (x0, x1) = cpus
+        .iter()
+        .fold((f64::INFINITY, 0.0f64), |(a, b), c| (a.min(*c), b.max(*c)));
+    let (x0, x1) = ((x0.min(0.5) / 2.0).max(1e-4), (x1.max(2.0) * 2.0));
+    let ok_errs: Vec<f64> = shown.iter().filter(|r| r.ok()).map(|r| y(r)).collect();
+    let y0 = ok_errs.iter().copied().fold(1e-4, f64::min) / 3.0;
+    let y_top_data = ok_errs.iter().copied().fold(1.0, f64::max);
+    let y1 = y_top_data * 30.0;
+    let fail_y = y_top_data * 10.0;
+    let mut chart = ChartBuilder::on(root)
+        .caption(caption, ("sans-serif", 20))
+        .margin(12)
+        .x_label_area_size(45)
+        .y_label_area_size(70)
+        .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())?;
+    chart
+        .configure_mesh()
+        .x_desc("CPU s per simulated s (single thread, stepping loop only)")
+        .y_desc(y_desc)
+        .x_label_formatter(&|x| format!("{x:.0e}"))
+        .y_label_formatter(&|y| format!("{y:.0e}"))
+        .label_style(("sans-serif", 14))
+        .axis_desc_style(("sans-serif", 15))
+        .light_line_style(WHITE.mix(0.0))
+        .draw()?;
+    draw_guides(&mut chart, [x0, x1, y0, y1], fail_y, energy)?;
+    draw_methods(&mut chart, &shown, x0, fail_y, energy)?;
+    let front = pareto(shown.iter().copied(), y);
+    chart
+        .draw_series(
+            front
+                .iter()
+                .map(|r| Circle::new((r.cpu, y(r)), 7, BLACK.stroke_width(1))),
+        )?
+        .label("Pareto front (all methods)")
+        .legend(|(x, yy)| Circle::new((x + 10, yy), 6, BLACK.stroke_width(1)));
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .label_font(("sans-serif", 13))
+        .draw()?;
+    Ok(())
+}
+
+pub(crate) fn draw_stability<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    cfg: &Config,
+    cells: &[Cell],
+) -> DynResult<()>
+where
+    DB::ErrorType: 'static,
+{
+    let title = format!(
+        "chain of {} links, dt 1/60, {} s: end-mass ratio x substeps (green ok, orange gap > 1 cm, red blew up, grey skipped)",
+        cfg.stability_links, cfg.stability_secs
+    );
+    let (top, body) = root.split_vertically(40);
+    top.draw(&Text::new(title, (10, 12), ("sans-serif", 15).into_font()))?;
+    let panels = body.split_evenly((2, 3));
+    let nr = cfg.stability_ratios.len() as i32;
+    let ns = cfg.substeps.len() as i32;
+    for (panel, method) in panels.iter().zip(METHODS) {
+        let mut chart = ChartBuilder::on(panel)
+            .caption(method.name(), ("sans-serif", 16))
+            .margin(8)
+            .x_label_area_size(35)
+            .y_label_area_size(55)
+            .build_cartesian_2d(0f64..ns as f64, 0f64..nr as f64)?;
+        let subs = cfg.substeps.clone();
+        let ratios = cfg.stability_ratios.clone();
+        chart
+            .configure_mesh()
+            .disable_mesh()
+            .x_labels(ns as usize * 2 + 1)
+            .y_labels(nr as usize * 2 + 1)
+            .x_label_formatter(&|x| {
+                let i = (x - 0.5).round();
+                if (x - 0.5 - i).abs() < 1e-6 && i >= 0.0 && (i as usize) < subs.len() {
+                    format!("{}", subs[i as usize])
+                } else {
+                    String::new()
+                }
+            })
+            .y_label_formatter(&|y| {
+                let i = (y - 0.5).round();
+                if (y - 0.5 - i).abs() < 1e-6 && i >= 0.0 && (i as usize) < ratios.len() {
+                    format!("1:{}", ratios[i as usize])
+                } else {
+                    String::new()
+                }
+            })
+            .x_desc("substeps")
+            .label_style(("sans-serif", 12))
+            .axis_desc_style(("sans-serif", 12))
+            .draw()?;
+        for (i, &sub) in cfg.substeps.iter().enumerate() {
+            for (j, &ratio) in cfg.stability_ratios.iter().enumerate() {
+                let cell = cells
+                    .iter()
+                    .find(|c| c.method == method && c.ratio == ratio && c.substeps == sub);
+                let (color, label) = match cell {
+                    None => (RGBColor(240, 240, 240), "n/a".to_string()),
+                    Some(c) => match c.class {
+                        "ok" => (RGBColor(120, 200, 120), format!("{:.0e}", c.gap)),
+                        "gap" => (RGBColor(250, 170, 70), format!("{:.0e}", c.gap)),
+                        "blew up" => (RGBColor(220, 70, 60), "blew up".into()),
+                        _ => (RGBColor(190, 190, 190), "skipped".into()),
+                    },
+                };
+                let (x, y) = (i as f64, j as f64);
+                chart.draw_series(std::iter::once(Rectangle::new(
+                    [(x + 0.03, y + 0.03), (x + 0.97, y + 0.97)],
+                    color.filled(),
+                )))?;
+                chart.draw_series(std::iter::once(Text::new(
+                    label,
+                    (x + 0.12, y + 0.6),
+                    ("sans-serif", 12).into_font(),
+                )))?;
+            }
+        }
+    }
+    Ok(())
+}
+
+pub(crate) fn draw_scaling<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    costs: &[Cost],
+) -> DynResult<()>
+where
+    DB::ErrorType: 'static,
+{
+    let n1 = costs.iter().map(|c| c.n).max().unwrap_or(10) as f64;
+    let (y0, y1) = costs.iter().fold((f64::INFINITY, 0.0f64), |(a, b), c| {
+        (a.min(c.us_per_step), b.max(c.us_per_step))
+    });
+    let mut chart = ChartBuilder::on(root)
+        .caption(
+            "chain cost per step (dt 1/60, 4 substeps, ratio 1, single thread)",
+            ("sans-serif", 18),
+        )
+        .margin(12)
+        .x_label_area_size(45)
+        .y_label_area_size(70)
+        .build_cartesian_2d(
+            (8.0..n1 * 1.3).log_scale(),
+            ((y0 / 2.0).max(0.1)..y1 * 3.0).log_scale(),
+        )?;
+    chart
+        .configure_mesh()
+        .x_desc("links N")
+        .y_desc("us per step")
+        .y_label_formatter(&|y| format!("{y:.0e}"))
+        .label_style(("sans-serif", 14))
+        .axis_desc_style(("sans-serif", 15))
+        .draw()?;
+    for method in [
+        Method::Lagrange,
+        Method::Penalty(1e6),
+        Method::Impulse,
+        Method::Multibody,
+    ] {
+        let pts: Vec<(f64, f64)> = costs
+            .iter()
+            .filter(|c| c.method == method)
+            .map(|c| (c.n as f64, c.us_per_step))
+            .collect();
+        if pts.is_empty() {
+            continue;
+        }
+        let c = method.color();
+        chart
+            .draw_series(LineSeries::new(pts.iter().copied(), c.stroke_width(2)))?
+            .label(method.name())
+            .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], c.stroke_width(3)));
+        chart.draw_series(pts.iter().map(|p| Circle::new(*p, 4, c.filled())))?;
+    }
+    // Slope guides from the smallest Lagrange point: N and N^3.
+    if let Some(base) = costs.iter().find(|c| c.method == Method::Lagrange) {
+        let (nb, yb) = (base.n as f64, base.us_per_step / 3.0);
+        for (p, label) in [(1.0, "~N"), (3.0, "~N^3")] {
+            let end = (n1.min(nb * 10f64.powf(3.0 / p)), 0.0);
+            let end = (end.0, yb * (end.0 / nb).powf(p));
+            chart.draw_series(LineSeries::new(
+                [(nb, yb), end],
+                BLACK.mix(0.4).stroke_width(1),
+            ))?;
+            chart.draw_series(std::iter::once(Text::new(
+                label,
+                end,
+                ("sans-serif", 13).into_font(),
+            )))?;
+        }
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperLeft)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .label_font(("sans-serif", 13))
+        .draw()?;
+    Ok(())
+}
+
+/// One grid panel: columns `xs` (labels), rows `ys` (labels, bottom up), each cell a colour and
+/// a label.
+pub(crate) fn draw_grid<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    caption: &str,
+    x_desc: &str,
+    xs: &[String],
+    ys: &[String],
+    cell: impl Fn(usize, usize) -> Option<(RGBColor, String)>,
+    font: u32,
+) -> DynResult<()>
+where
+    DB::ErrorType: 'static,
+{
+    let (nx, ny) = (xs.len() as i32, ys.len() as i32);
+    let mut chart = ChartBuilder::on(area)
+        .caption(caption, ("sans-serif", 16))
+        .margin(8)
+        .x_label_area_size(35)
+        .y_label_area_size(60)
+        .build_cartesian_2d(0f64..nx as f64, 0f64..ny as f64)?;
+    let label = |v: f64, names: &[String]| {
+        let i = (v - 0.5).round();
+        if (v - 0.5 - i).abs() < 1e-6 && i >= 0.0 && (i as usize) < names.len() {
+            names[i as usize].clone()
+        } else {
+            String::new()
+        }
+    };
+    chart
+        .configure_mesh()
+        .disable_mesh()
+        .x_labels(nx as usize * 2 + 1)
+        .y_labels(ny as usize * 2 + 1)
+        .x_label_formatter(&|x| label(*x, xs))
+        .y_label_formatter(&|y| label(*y, ys))
+        .x_desc(x_desc)
+        .label_style(("sans-serif", 12))
+        .axis_desc_style(("sans-serif", 12))
+        .draw()?;
+    for i in 0..xs.len() {
+        for j in 0..ys.len() {
+            let (color, text) = cell(i, j).unwrap_or((RGBColor(240, 240, 240), "n/a".to_string()));
+            let (x, y) = (i as f64, j as f64);
+            chart.draw_series(std::iter::once(Rectangle::new(
+                [(x + 0.03, y + 0.03), (x + 0.97, y + 0.97)],
+                color.filled(),
+            )))?;
+            chart.draw_series(std::iter::once(Text::new(
+                text,
+                (x + 0.08, y + 0.62),
+                ("sans-serif", font).into_font(),
+            )))?;
+        }
+    }
+    Ok(())
+}
+
+pub(crate) fn map_label(c: &MapCell) -> String {
+    match c.class {
+        "blew up" => "blew up".into(),
+        "branch switch" => "branch".into(),
+        "gap" => format!("gap {:.0e}", c.gap),
+        "skipped" => "skipped".into(),
+        _ => format!("{:.0e}", c.traj),
+    }
+}
+
+pub(crate) const MAP_LEGEND: &str = "green <= 1e-3 m, light green <= 1e-1 m, orange > 1e-1 m, brown joint gap > 0.1 m (stopped there), violet branch switch, red blew up, grey n/a";
+
+/// Draws a map's title (at `size` points) and the class legend on a 50-pixel band at the top of
+/// `root`; returns the area below for the grid.
+pub(crate) fn map_header<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    title: &str,
+    size: u32,
+) -> DynResult<DrawingArea<DB, Shift>>
+where
+    DB::ErrorType: 'static,
+{
+    let (top, body) = root.split_vertically(50);
+    top.draw(&Text::new(title, (10, 8), ("sans-serif", size).into_font()))?;
+    top.draw(&Text::new(
+        MAP_LEGEND,
+        (10, 28),
+        ("sans-serif", 12).into_font(),
+    ))?;
+    Ok(body)
+}
+
+pub(crate) fn draw_penalty<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    cfg: &Config,
+    cells: &[MapCell],
+) -> DynResult<()>
+where
+    DB::ErrorType: 'static,
+{
+    let title = format!(
+        "penalty pendulum (A01, 90 deg, {} s, 1 substep): stiffness x dt, max bob error vs exact",
+        cfg.penalty_secs
+    );
+    let body = map_header(root, &title, 15)?;
+    let xs: Vec<String> = cfg.penalty_rates.iter().map(|r| format!("1/{r}")).collect();
+    let rows: Vec<f64> = cfg
+        .penalty_ks
+        .iter()
+        .copied()
+        .chain([f64::INFINITY])
+        .collect();
+    let ys: Vec<String> = rows
+        .iter()
+        .map(|k| {
+            if k.is_finite() {
+                format!("k {k:.0e}")
+            } else {
+                "lagrange".into()
+            }
+        })
+        .collect();
+    draw_grid(
+        &body,
+        "k (N/m, N m/rad) against dt (s)",
+        "dt (s)",
+        &xs,
+        &ys,
+        |i, j| {
+            let dt = 1.0 / cfg.penalty_rates[i] as f64;
+            cells
+                .iter()
+                .find(|c| c.row == rows[j] && (c.dt - dt).abs() < 1e-12)
+                .map(|c| (class_color(c.class), map_label(c)))
+        },
+        13,
+    )
+}
+
+pub(crate) fn draw_singular<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    cfg: &Config,
+    cells: &[MapCell],
+) -> DynResult<()>
+where
+    DB::ErrorType: 'static,
+{
+    let title = format!(
+        "parallelogram four-bar (A02) released at rest delta above its singular pose, {} s, 1 substep: delta x dt, max crank-tip error vs exact",
+        cfg.singular_secs
+    );
+    let body = map_header(root, &title, 14)?;
+    let xs: Vec<String> = cfg
+        .singular_rates
+        .iter()
+        .map(|r| format!("1/{r}"))
+        .collect();
+    let ys: Vec<String> = cfg
+        .singular_deltas
+        .iter()
+        .map(|d| format!("{d:.0e}"))
+        .collect();
+    for (panel, method) in body.split_evenly((2, 3)).iter().zip(METHODS) {
+        draw_grid(
+            panel,
+            &method.name(),
+            "dt (s)",
+            &xs,
+            &ys,
+            |i, j| {
+                let dt = 1.0 / cfg.singular_rates[i] as f64;
+                cells
+                    .iter()
+                    .find(|c| {
+                        c.method == method
+                            && c.row == cfg.singular_deltas[j]
+                            && (c.dt - dt).abs() < 1e-12
+                    })
+                    .map(|c| (class_color(c.class), map_label(c)))
+            },
+            10,
+        )?;
+    }
+    Ok(())
+}

@@ -1,0 +1,194 @@
+//! `summary.md`: per scene the Pareto front, the cheapest run of each method reaching the IFToMM
+//! levels, and where each method fails; the maps' findings.
+
+use super::*;
+
+/// Appends the two maps' findings to the summary: per row or method, the cells in each class.
+pub(crate) fn map_summary(s: &mut String, cfg: &Config, penalty: &[MapCell], singular: &[MapCell]) {
+    let line = |cells: &[&MapCell]| -> String {
+        cells
+            .iter()
+            .map(|c| {
+                format!(
+                    "1/{:.0} {}{}",
+                    1.0 / c.dt,
+                    c.class,
+                    match c.class {
+                        "blew up" | "branch switch" | "skipped" => String::new(),
+                        "gap" => format!(" ({:.1e} m)", c.gap),
+                        _ => format!(" ({:.1e} m)", c.traj),
+                    }
+                )
+            })
+            .collect::<Vec<_>>()
+            .join("; ")
+    };
+    let _ = writeln!(
+        s,
+        "\n## Penalty stiffness x dt (A01 pendulum, 90 deg, {} s, 1 substep)\n\n| k | cells by dt |\n|---|---|",
+        cfg.penalty_secs
+    );
+    let mut rows: Vec<f64> = penalty.iter().map(|c| c.row).collect();
+    rows.dedup();
+    for k in rows {
+        let mine: Vec<&MapCell> = penalty.iter().filter(|c| c.row == k).collect();
+        let name = if k.is_finite() {
+            format!("{k:.0e}")
+        } else {
+            "lagrange".into()
+        };
+        let _ = writeln!(s, "| {name} | {} |", line(&mine));
+    }
+    let _ = writeln!(
+        s,
+        "\n## Four-bar released delta above its singular pose x dt ({} s, 1 substep)\n\n| method | delta (rad) | cells by dt |\n|---|---|---|",
+        cfg.singular_secs
+    );
+    for method in METHODS {
+        for &d in &cfg.singular_deltas {
+            let mine: Vec<&MapCell> = singular
+                .iter()
+                .filter(|c| c.method == method && c.row == d)
+                .collect();
+            if mine.is_empty() {
+                continue;
+            }
+            let _ = writeln!(s, "| {} | {d:.0e} | {} |", method.name(), line(&mine));
+        }
+    }
+}
+
+pub(crate) fn fmt_run(r: &Run, y: f64) -> String {
+    format!(
+        "{} {} ({:.2e} s/s, {y:.1e})",
+        r.method.name(),
+        r.setting(),
+        r.cpu
+    )
+}
+
+pub(crate) fn summary(
+    cfg: &Config,
+    runs: &[Run],
+    refs: &[(Scene, String, f64)],
+    cells: &[Cell],
+    costs: &[Cost],
+    wall: f64,
+) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "# Work-precision summary{}\n\nSweep wall time {wall:.0} s ({} runs). Trajectory error in m, energy error per E_scale, \
+         CPU in s per simulated s.\n",
+        if cfg.quick { " (--quick)" } else { "" },
+        runs.len()
+    );
+    for scene in SCENES {
+        let rs: Vec<&Run> = runs.iter().filter(|r| r.scene == scene).collect();
+        let _ = writeln!(s, "## {}\n", scene.title(cfg));
+        if let Some((_, how, floor)) = refs.iter().find(|(sc, _, _)| *sc == scene) {
+            let _ = writeln!(s, "Reference: {how}; floor {floor:.1e} m.\n");
+        }
+        let front = pareto(rs.iter().copied(), |r| r.traj);
+        let _ = writeln!(s, "Pareto front (trajectory):");
+        for r in &front {
+            let _ = writeln!(s, "- {}", fmt_run(r, r.traj));
+        }
+        let _ = writeln!(
+            s,
+            "\n| method | runs ok/failed/skipped | cheapest <= 1e-1 m | cheapest <= 1e-3 m | cheapest <= 1e-5 m | order in h | best error | failures |\n|---|---|---|---|---|---|---|---|"
+        );
+        for method in METHODS {
+            method_row(&mut s, &rs, method);
+        }
+        let _ = writeln!(s);
+    }
+    let _ = writeln!(
+        s,
+        "## Chain stability (dt 1/60, {} links)\n",
+        cfg.stability_links
+    );
+    let _ = writeln!(
+        s,
+        "| method | ratio | substeps | class | max gap m | status |\n|---|---|---|---|---|---|"
+    );
+    for c in cells {
+        let _ = writeln!(
+            s,
+            "| {} | 1:{} | {} | {} | {:.1e} | {} |",
+            c.method.name(),
+            c.ratio,
+            c.substeps,
+            c.class,
+            c.gap,
+            c.status
+        );
+    }
+    let _ = writeln!(
+        s,
+        "\n## Chain cost per step (dt 1/60, 4 substeps)\n\n| method | N | us/step |\n|---|---|---|"
+    );
+    for c in costs {
+        let _ = writeln!(
+            s,
+            "| {} | {} | {:.0} |",
+            c.method.name(),
+            c.n,
+            c.us_per_step
+        );
+    }
+    s
+}
+
+/// One method's row of a scene's table: runs, cheapest run to each IFToMM level, observed
+/// order, best error, failures.
+fn method_row(s: &mut String, rs: &[&Run], method: Method) {
+    let mine: Vec<&Run> = rs.iter().copied().filter(|r| r.method == method).collect();
+    if mine.is_empty() {
+        return;
+    }
+    let cheapest = |lim: f64| {
+        mine.iter()
+            .filter(|r| r.ok() && r.traj <= lim)
+            .min_by(|a, b| a.cpu.total_cmp(&b.cpu))
+            .map_or("never".to_string(), |r| {
+                format!("{} ({:.2e} s/s)", r.setting(), r.cpu)
+            })
+    };
+    let best = mine
+        .iter()
+        .filter(|r| r.ok())
+        .min_by(|a, b| a.traj.total_cmp(&b.traj))
+        .map_or("-".to_string(), |r| {
+            format!("{:.1e} at {}", r.traj, r.setting())
+        });
+    let fails: Vec<String> = mine
+        .iter()
+        .filter(|r| r.failed())
+        .map(|r| {
+            format!(
+                "{} {}",
+                r.setting(),
+                r.status.trim_start_matches("failed: ")
+            )
+        })
+        .collect();
+    let n = |f: &dyn Fn(&Run) -> bool| mine.iter().filter(|r| f(r)).count();
+    let order = observed_order(&by_substep(rs, method), 1e-9);
+    let _ = writeln!(
+        s,
+        "| {} | {}/{}/{} | {} | {} | {} | {order:.2} | {best} | {} |",
+        method.name(),
+        n(&|r| r.ok()),
+        n(&|r| r.failed()),
+        n(&|r| r.status.starts_with("skipped")),
+        cheapest(1e-1),
+        cheapest(1e-3),
+        cheapest(1e-5),
+        if fails.is_empty() {
+            "none".into()
+        } else {
+            fails.join("; ")
+        }
+    );
+}
