@@ -16,7 +16,7 @@ use std::time::Instant;
 
 use clap::{Parser, Subcommand, ValueEnum};
 use rapier3d_mpc184::deck::{BuildOptions, Deck, DeckModel, parse_file, parse_str};
-use rapier3d_mpc184::metrics::pendulum_study;
+use rapier3d_mpc184::studies::metrics::pendulum_study;
 use rapier3d_mpc184::prelude::*;
 
 /// The default deck, run by `mpc184` with no arguments.

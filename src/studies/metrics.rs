@@ -106,7 +106,7 @@ pub struct PendulumReport {
 /// `step()` calls Rapier once per substep). The wall time comes from a second, unsampled run at
 /// the real `dt` and `substeps`.
 pub fn pendulum_study(
-    backend: crate::lower::Backend,
+    backend: crate::settings::Backend,
     axis: crate::catalogue::Axis,
     theta0: Real,
     dt: Real,
@@ -126,7 +126,7 @@ pub fn pendulum_study(
 
 /// [`pendulum_study`] with a chosen integrator (Lagrange backend; the Rapier backends ignore it).
 pub fn pendulum_study_with(
-    backend: crate::lower::Backend,
+    backend: crate::settings::Backend,
     integrator: crate::world::Integrator,
     axis: crate::catalogue::Axis,
     theta0: Real,

@@ -58,7 +58,7 @@ use crate::catalogue::JointKind;
 use crate::dof::{Dof, DofMask};
 use crate::error::{Error, JointId};
 use crate::joint::ConstraintMethod;
-use crate::lower::Backend;
+use crate::settings::Backend;
 use crate::math::rapier::dynamics::RigidBodyHandle;
 use crate::math::{Real, Vector};
 use crate::world::{DriveProfile, Mpc184World, WorldSettings};
