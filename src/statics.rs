@@ -9,7 +9,7 @@
 //!    springs carry no load): the minimum-norm step `dq = W^-1 J^T (J W^-1 J^T)^-1 (-C)` in the
 //!    metric `W = diag(1, 1, 1, l^2, l^2, l^2)` per body (`l` its size: the largest distance
 //!    of its joint points from its centre), solved by the block-sparse KKT factorisation of the
-//!    dynamics ([`crate::solver::kkt`], redundant rows dropped); backtracking halves a step that
+//!    dynamics (the block-sparse KKT solver, redundant rows dropped); backtracking halves a step that
 //!    does not reduce the residual; converged when every row is below `STATIC_TOLERANCE`;
 //! 3. the mobility `6 n_bodies - rank(J)` (drives included) from the same factorisation: a
 //!    positive mobility is [`Error::StaticEquilibrium`] (static equilibrium of a mechanism with
