@@ -16,8 +16,8 @@ use std::time::Instant;
 
 use clap::{Parser, Subcommand, ValueEnum};
 use rapier3d_mpc184::deck::{BuildOptions, Deck, DeckModel, parse_file, parse_str};
-use rapier3d_mpc184::studies::metrics::pendulum_study;
 use rapier3d_mpc184::prelude::*;
+use rapier3d_mpc184::studies::metrics::pendulum_study;
 
 /// The default deck, run by `mpc184` with no arguments.
 const DEFAULT_DECK: &str = include_str!("../assets/decks/slider_crank.inp");

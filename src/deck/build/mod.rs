@@ -58,9 +58,9 @@ use crate::catalogue::JointKind;
 use crate::dof::{Dof, DofMask};
 use crate::error::{Error, JointId};
 use crate::joint::ConstraintMethod;
-use crate::settings::Backend;
 use crate::math::rapier::dynamics::RigidBodyHandle;
 use crate::math::{Real, Vector};
+use crate::settings::Backend;
 use crate::world::{DriveProfile, Mpc184World, WorldSettings};
 
 /// Relative rotary inertia given to point-mass bodies (see the module docs): `1e-6` in f64
