@@ -104,7 +104,7 @@ impl Mpc184World {
             },
             ..Core::default()
         };
-        Self::from_parts(physics, core, JointBackend::new(settings.backend))
+        Self::from_parts(physics, core, settings.backend.into())
     }
 
     /// A world from its parts (a new one, or one read from a snapshot).

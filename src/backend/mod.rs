@@ -109,9 +109,9 @@ pub(crate) struct Attached {
 
 static NO_DIAGNOSTICS: LagrangeDiagnostics = LagrangeDiagnostics::EMPTY;
 
-impl JointBackend {
+impl From<Backend> for JointBackend {
     /// The backend for the setting `kind`.
-    pub(crate) fn new(kind: Backend) -> JointBackend {
+    fn from(kind: Backend) -> JointBackend {
         match kind {
             Backend::Lagrange => JointBackend::Lagrange(Box::default()),
             Backend::RapierImpulse => {
@@ -122,7 +122,9 @@ impl JointBackend {
             }
         }
     }
+}
 
+impl JointBackend {
     /// The setting this backend implements.
     pub(crate) fn kind(&self) -> Backend {
         match self {

@@ -14,7 +14,7 @@
 //! the rigid-body velocities of a consistent motion.
 //!
 //! Loops cannot be built from Rapier multibody joints (trees only): on
-//! [`Backend::RapierMultibody`](crate::settings::Backend) the four-bar, Bricard and slider-crank
+//! the multibody backend ([`crate::settings::Backend`]) the four-bar, Bricard and slider-crank
 //! builders return the `Error::Unsupported` of the loop-closing joint. A joint kind that a backend
 //! cannot express (the universal joint on both Rapier backends) is returned the same way.
 //!
