@@ -12,11 +12,11 @@ use crate::rows::{FramePair, RowKind};
 use crate::solver::kkt::JAC_ROW_STRIDE;
 
 use super::{
-    DEFAULT_PENALTY_DISP, DEFAULT_PENALTY_ROT, LagrangeState, REGULARISATION, kkt_err,
+    DEFAULT_PENALTY_DISP, DEFAULT_PENALTY_ROT, Island, REGULARISATION, Warning, kkt_err,
     penalty_stiffness,
 };
 
-impl LagrangeState {
+impl Island {
     /// Reads pose, mass and velocity of every jointed body from Rapier.
     pub(super) fn gather(&mut self, bodies: &RigidBodySet, g: Vector) {
         for (i, b) in self.bodies.iter().enumerate() {
@@ -41,7 +41,7 @@ impl LagrangeState {
 
     /// The factorisation of the last substep still holds for a step of `h`: same `h`, no
     /// kinematic body, and every body exactly as it was written back (the user may have moved
-    /// bodies or changed velocities between steps). Call after [`LagrangeState::gather`].
+    /// bodies or changed velocities between steps). Call after [`Island::gather`].
     pub(super) fn factor_holds(&self, h: Real) -> bool {
         !self.has_kinematic
             && self.factor_valid == Some(h)
@@ -179,15 +179,17 @@ impl LagrangeState {
             .map_err(|e| kkt_err(e, time))?;
         // The topology check (unregularised) found the structural redundancy; a regularised
         // factorisation only sees rows that are dependent numerically as well.
-        self.diagnostics.redundant_rows = report.redundant_rows.max(self.redundant_count);
-        if report.redundant_rows > 0 && !self.warned_redundant {
-            self.warned_redundant = true;
-            self.diagnostics.warnings.push(format!(
-                "t = {time}: {} redundant constraint row(s): the constraint Jacobian is rank \
-                 deficient, the multipliers of the dependent rows are not unique (the solve \
-                 regularises them; the motion is unaffected)",
-                report.redundant_rows
-            ));
+        self.report.redundant_rows = report.redundant_rows.max(self.redundant_count);
+        if report.redundant_rows > 0 {
+            self.warn(
+                Warning::Redundant,
+                format!(
+                    "t = {time}: {} redundant constraint row(s): the constraint Jacobian is rank \
+                     deficient, the multipliers of the dependent rows are not unique (the solve \
+                     regularises them; the motion is unaffected)",
+                    report.redundant_rows
+                ),
+            );
         }
         Ok(())
     }
@@ -248,7 +250,7 @@ impl LagrangeState {
                 0.0
             };
         }
-        self.diagnostics.stiffened_bodies = stiffened;
+        self.report.stiffened_bodies = stiffened;
     }
 
     /// Counts the redundant hard rows once per topology: one factorisation without the
@@ -269,8 +271,8 @@ impl LagrangeState {
         self.redundant_count = 0;
         let result = self.factor(joints, bodies, h, time);
         self.compliance = saved;
-        self.redundant_count = self.diagnostics.redundant_rows;
-        self.redundant = self.diagnostics.redundant_rows > 0;
+        self.redundant_count = self.report.redundant_rows;
+        self.redundant = self.report.redundant_rows > 0;
         result
     }
 }

@@ -3,12 +3,11 @@
 
 use crate::joint_set::JointSet;
 use crate::math::Real;
-use crate::output::EnergyLedger;
 use crate::rows::RowKind;
 
-use super::LagrangeState;
+use super::Island;
 
-impl LagrangeState {
+impl Island {
     /// Sets every drive row's target to its value at `t1` (the end of the coming substep) and
     /// its rate to the change over the substep divided by h.
     pub(super) fn update_drives(&mut self, joints: &mut JointSet, t1: Real, h: Real) {
@@ -32,10 +31,10 @@ impl LagrangeState {
 
     /// Books the work of the prescribed motions (DJ) over the substep just taken: each drive
     /// row's impulse times its prescribed rate (`lambda . J v` with `J v` = the rate).
-    pub(super) fn book_drive_work(&self, joints: &JointSet, ledger: &mut EnergyLedger) {
+    pub(super) fn book_drive_work(&mut self, joints: &JointSet) {
         let mut work = 0.0;
-        for (j, e) in joints.slots().iter().enumerate() {
-            let Some(e) = e else { continue };
+        for &j in &self.blocks {
+            let Some(e) = joints.get(j) else { continue };
             if e.drives.is_empty() {
                 continue;
             }
@@ -50,6 +49,6 @@ impl LagrangeState {
                 }
             }
         }
-        ledger.work += work;
+        self.ledger.work += work;
     }
 }

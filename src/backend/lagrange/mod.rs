@@ -66,6 +66,7 @@ use std::collections::HashMap;
 use crate::error::Error;
 use crate::math::rapier::dynamics::RigidBodyHandle;
 use crate::math::{Matrix, Pose, Real, Rotation, Vector};
+use crate::output::EnergyLedger;
 use crate::solver::kkt::KktSolver;
 
 use super::Sets;
@@ -167,29 +168,55 @@ impl LagrangeDiagnostics {
 /// The KKT structure: body count and per joint block its rows and body slots.
 type KktShape = (usize, Vec<(usize, [Option<usize>; 2])>);
 
-/// Solver state and buffers (not model data). A snapshot holds all of it but the
-/// factorisation and the body index, which are rebuilt exactly on restoring
+/// Warnings issued once per world.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(
+    feature = "serde-snapshot",
+    derive(serde::Serialize, serde::Deserialize)
+)]
+enum Warning {
+    Redundant,
+    Projection,
+    Fallback,
+}
+
+/// What an island did in the last step, summed or maximised over islands into the
+/// [`LagrangeDiagnostics`].
+#[derive(Clone, Debug, Default)]
+#[cfg_attr(
+    feature = "serde-snapshot",
+    derive(serde::Serialize, serde::Deserialize)
+)]
+struct IslandReport {
+    redundant_rows: usize,
+    projection_residual: Real,
+    projection_iterations: usize,
+    stiffened_bodies: usize,
+    first_order_bodies: usize,
+    /// Warnings raised in the step (kept once per kind by the backend).
+    warnings: Vec<(Warning, String)>,
+}
+
+/// One island: bodies connected by joints (through dynamic bodies), with its own KKT
+/// structure, factorisation and buffers. Islands do not interact (contacts aside, which
+/// Rapier solves), so they step one after the other, or in parallel. A snapshot holds all of
+/// it but the factorisation and the body index, which are rebuilt exactly on restoring
 /// ([`LagrangeBackend::after_restore`]): a field added here is part of the snapshot.
 #[derive(Default)]
 #[cfg_attr(
     feature = "serde-snapshot",
     derive(serde::Serialize, serde::Deserialize)
 )]
-pub(crate) struct LagrangeState {
-    /// The derived structure must be rebuilt (invalidated by the world).
-    dirty: bool,
-    /// [`crate::joint_set::JointSet::topology`] when the structure was built.
-    topology: u64,
-    /// Number of colliders when the topology was built (a change rebuilds it).
-    colliders: usize,
+pub(crate) struct Island {
     bodies: Vec<RigidBodyHandle>,
     /// Rebuilt from `bodies` on restoring a snapshot (a hash map's order is not the same in two
     /// runs, and the snapshot's bytes should be).
     #[cfg_attr(feature = "serde-snapshot", serde(skip))]
     index: HashMap<RigidBodyHandle, usize>,
-    /// KKT block k -> world joint index, and back.
+    /// KKT block k -> world joint index (the island's joints with rows, ascending).
     blocks: Vec<usize>,
-    block_of: Vec<Option<usize>>,
+    /// Every joint of the island, rows or not (springs alone act on it too), ascending.
+    members: Vec<usize>,
     #[cfg_attr(feature = "serde-snapshot", serde(skip))]
     kkt: Option<KktSolver>,
     /// The structure of `kkt` (what a snapshot keeps of it).
@@ -234,44 +261,63 @@ pub(crate) struct LagrangeState {
     impulse: Vec<Real>,
     shift: Vec<[Real; 6]>,
     saved: Vec<(Real, Vector, Vector)>,
-    diagnostics: LagrangeDiagnostics,
     /// The velocity-level limit stage found every limit far away (the position stage skips).
     limits_clear: bool,
-    /// Per joint, asleep when the topology was built (asleep joints have no rows).
-    asleep: Vec<bool>,
     /// Per body: integrated by the second-order (RATTLE) step in the current step (the world
     /// asks for it and the body's island has no active contact).
     second: Vec<bool>,
     /// Some body is integrated by the second-order step in the current step.
     second_any: bool,
-    warned_redundant: bool,
-    warned_projection: bool,
-    warned_fallback: bool,
+    /// Work done and energy dissipated in the island during the current substep, added to the
+    /// world's ledger when the substep ends.
+    ledger: EnergyLedger,
+    report: IslandReport,
 }
 
-impl LagrangeState {
-    /// Joint `j` had all its bodies asleep at the last topology build (it has no rows).
-    fn is_asleep(&self, j: usize) -> bool {
-        self.asleep.get(j).copied().unwrap_or(false)
-    }
-
-    /// The row range of world joint `j` in the current block layout, if it has rows.
-    fn rows_of(&self, j: usize) -> Option<core::ops::Range<usize>> {
+impl Island {
+    /// The row range of KKT block `k`.
+    fn block_rows(&self, k: usize) -> Option<core::ops::Range<usize>> {
         let kkt = self.kkt.as_ref()?;
-        let k = (*self.block_of.get(j)?)?;
         let r0 = kkt.row_offset(k);
-        Some(r0..r0 + kkt.joint_specs()[k].rows)
+        Some(r0..r0 + kkt.joint_specs().get(k)?.rows)
+    }
+
+    /// The row range of world joint `j` in this island, if it has rows here.
+    fn rows_of(&self, j: usize) -> Option<core::ops::Range<usize>> {
+        let k = self.blocks.binary_search(&j).ok()?;
+        self.block_rows(k)
+    }
+
+    /// Notes a warning of `kind` (issued once per world by the backend).
+    fn warn(&mut self, kind: Warning, text: String) {
+        self.report.warnings.push((kind, text));
     }
 }
 
-/// The Lagrange backend: the solver state and the joint behaviour's per-joint scratch.
+/// The Lagrange backend: the islands, where each joint is, and the joint behaviour's
+/// per-joint scratch.
 #[derive(Default)]
 #[cfg_attr(
     feature = "serde-snapshot",
     derive(serde::Serialize, serde::Deserialize)
 )]
 pub(crate) struct LagrangeBackend {
-    ls: LagrangeState,
+    islands: Vec<Island>,
+    /// Per world joint: its island and KKT block (`None`: no rows, or asleep).
+    block_of: Vec<Option<(usize, usize)>>,
+    /// Per world joint: its island (`None`: asleep, or removed).
+    island_of: Vec<Option<usize>>,
+    /// The derived structure must be rebuilt (invalidated by the world).
+    dirty: bool,
+    /// [`crate::joint_set::JointSet::topology`] when the structure was built.
+    topology: u64,
+    /// Number of colliders when the topology was built (a change rebuilds it).
+    colliders: usize,
+    /// Per joint, asleep when the topology was built (asleep joints have no rows).
+    asleep: Vec<bool>,
+    diagnostics: LagrangeDiagnostics,
+    /// Warnings issued so far.
+    warned: Vec<Warning>,
     fx: effects::Effects,
 }
 
@@ -289,49 +335,76 @@ impl LagrangeBackend {
         self.fx.fit(sets.joints);
         self.fx.apply_pending_locks(sets.joints)?;
         self.fx.begin_step(sets.joints);
-        let rebuilt = self.ls.needs_rebuild(sets);
+        let rebuilt = self.needs_rebuild(sets);
         if rebuilt {
-            self.ls.topology(sets)?;
+            self.topology(sets)?;
         }
-        self.ls.diagnostics.projection_residual = 0.0;
-        self.ls.gather(&sets.physics.bodies, sets.physics.gravity);
-        if rebuilt || !self.ls.factor_holds(h) {
-            self.ls.rows(sets.joints, &sets.physics.bodies, h, true);
-            if rebuilt {
-                self.ls
-                    .redundancy_check(sets.joints, &sets.physics.bodies, h, sets.time)?;
-            }
-            self.ls
-                .factor(sets.joints, &sets.physics.bodies, h, sets.time)?;
+        for island in &mut self.islands {
+            island.report = IslandReport {
+                redundant_rows: island.report.redundant_rows,
+                ..IslandReport::default()
+            };
+            island.prepare(sets, h, rebuilt)?;
         }
-        self.ls.choose_order(sets);
         for k in 0..n {
             let t1 = sets.time + (k + 1) as Real * h;
-            self.ls.update_drives(sets.joints, t1, h);
+            for island in &mut self.islands {
+                island.update_drives(sets.joints, t1, h);
+            }
             self.substep(sets, h, t1)?;
         }
+        self.collect_reports();
         Ok(())
+    }
+
+    /// The islands' reports of the step into the diagnostics; each kind of warning once.
+    fn collect_reports(&mut self) {
+        let d = &mut self.diagnostics;
+        d.redundant_rows = 0;
+        d.projection_residual = 0.0;
+        d.projection_iterations = 0;
+        d.stiffened_bodies = 0;
+        d.first_order_bodies = 0;
+        for island in &mut self.islands {
+            let r = &mut island.report;
+            d.redundant_rows += r.redundant_rows;
+            d.projection_residual = d.projection_residual.max(r.projection_residual);
+            d.projection_iterations = d.projection_iterations.max(r.projection_iterations);
+            d.stiffened_bodies += r.stiffened_bodies;
+            d.first_order_bodies += r.first_order_bodies;
+            for (kind, text) in r.warnings.drain(..) {
+                if !self.warned.contains(&kind) {
+                    self.warned.push(kind);
+                    d.warnings.push(text);
+                }
+            }
+        }
+        if d.first_order_bodies > 0 {
+            d.first_order_steps += 1;
+        }
     }
 
     /// Reactions from the multipliers of the last substep `h` (plus the springs', dampers',
     /// loads' and limits' forces), and the element forces, into the joints' outputs.
     pub(crate) fn write_reactions(&mut self, sets: &mut Sets, h: Real) {
-        let ls = &self.ls;
         let bodies = &sets.physics.bodies;
         for (ji, e) in sets.joints.slots_mut().iter_mut().enumerate() {
             let Some(e) = e else { continue };
             let scratch = self.fx.scratch(ji);
             e.state.output.element_force = scratch.force;
             // An asleep island keeps the reactions it had when it fell asleep.
-            if ls.is_asleep(ji) {
+            if self.asleep.get(ji).copied().unwrap_or(false) {
                 continue;
             }
             let (mut f, mut tau) = (Vector::ZERO, Vector::ZERO);
-            if let Some(rows) = ls.rows_of(ji) {
+            if let Some(&Some((i, k))) = self.block_of.get(ji)
+                && let Some(rows) = self.islands[i].block_rows(k)
+            {
+                let impulse = &self.islands[i].impulse;
                 let fp = e.low_frames(bodies);
                 for (row, r) in e.state.rows.iter().zip(rows) {
                     let ev = row.eval(&fp);
-                    let m = ls.impulse[r] / h;
+                    let m = impulse[r] / h;
                     f += ev.j2[0] * m;
                     tau += ev.j2[1] * m;
                 }
@@ -345,53 +418,80 @@ impl LagrangeBackend {
 
     /// The diagnostics.
     pub(crate) fn diagnostics(&self) -> &LagrangeDiagnostics {
-        &self.ls.diagnostics
+        &self.diagnostics
     }
 
     /// Rebuild the structure and refactorise at the next step.
     pub(crate) fn invalidate(&mut self) {
-        self.ls.dirty = true;
+        self.dirty = true;
     }
 
     /// The solver's copy of body `h` (if it has one) is finite.
     pub(crate) fn body_finite(&self, h: RigidBodyHandle) -> bool {
-        self.ls
-            .index
-            .get(&h)
-            .and_then(|&i| self.ls.st.get(i))
-            .is_none_or(|s| {
-                s.pose.translation.is_finite()
-                    && s.pose.rotation.is_finite()
-                    && s.linvel.is_finite()
-                    && s.angvel.is_finite()
-            })
+        self.islands.iter().all(|island| {
+            island
+                .index
+                .get(&h)
+                .and_then(|&i| island.st.get(i))
+                .is_none_or(|s| {
+                    s.pose.translation.is_finite()
+                        && s.pose.rotation.is_finite()
+                        && s.linvel.is_finite()
+                        && s.angvel.is_finite()
+                })
+        })
     }
 
-    /// Rebuilds the body index and the factorisation after a snapshot was read: the KKT
-    /// structure from its saved shape, factored again from the saved mass blocks, Jacobian and
-    /// compliances (the very inputs of the one it replaces, so it is the same to the bit).
+    /// Rebuilds the islands' body indices and factorisations after a snapshot was read: each
+    /// KKT structure from its saved shape, factored again from the saved mass blocks, Jacobian
+    /// and compliances (the very inputs of the one it replaces, so it is the same to the bit).
     #[cfg(feature = "serde-snapshot")]
     pub(crate) fn after_restore(&mut self) -> Result<(), Error> {
-        let ls = &mut self.ls;
-        ls.index = (ls.bodies.iter().enumerate())
+        for island in &mut self.islands {
+            island.after_restore()?;
+        }
+        Ok(())
+    }
+}
+
+impl Island {
+    /// A step's start: the bodies from Rapier, and the factorisation unless the last
+    /// substep's still holds (same `h`, bodies as written back, structure not rebuilt).
+    fn prepare(&mut self, sets: &Sets, h: Real, rebuilt: bool) -> Result<(), Error> {
+        self.gather(&sets.physics.bodies, sets.physics.gravity);
+        if rebuilt || !self.factor_holds(h) {
+            self.rows(sets.joints, &sets.physics.bodies, h, true);
+            if rebuilt {
+                self.redundancy_check(sets.joints, &sets.physics.bodies, h, sets.time)?;
+            }
+            self.factor(sets.joints, &sets.physics.bodies, h, sets.time)?;
+        }
+        self.choose_order(sets);
+        Ok(())
+    }
+
+    /// See [`LagrangeBackend::after_restore`].
+    #[cfg(feature = "serde-snapshot")]
+    fn after_restore(&mut self) -> Result<(), Error> {
+        self.index = (self.bodies.iter().enumerate())
             .map(|(i, b)| (*b, i))
             .collect();
         let snapshot_error = |what: &str, e: crate::solver::kkt::KktError| Error::Snapshot {
             reason: format!("{what}: {e}"),
         };
-        if let Some((nb, specs)) = &ls.shape {
+        if let Some((nb, specs)) = &self.shape {
             use crate::solver::kkt::JointBlockSpec;
             let specs: Vec<JointBlockSpec> = specs
                 .iter()
                 .map(|&(rows, bodies)| JointBlockSpec { rows, bodies })
                 .collect();
-            let mut kkt =
-                KktSolver::new(*nb, &specs).map_err(|e| snapshot_error("the KKT structure", e))?;
-            if ls.factor_valid.is_some() {
-                kkt.factor(&ls.mass, &ls.jac, &ls.compliance)
+            let mut kkt = KktSolver::new(*nb, &specs)
+                .map_err(|e| snapshot_error("the KKT structure", e))?;
+            if self.factor_valid.is_some() {
+                kkt.factor(&self.mass, &self.jac, &self.compliance)
                     .map_err(|e| snapshot_error("refactorising the KKT system", e))?;
             }
-            ls.kkt = Some(kkt);
+            self.kkt = Some(kkt);
         }
         Ok(())
     }

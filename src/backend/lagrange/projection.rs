@@ -10,11 +10,11 @@ use crate::math::{Matrix, Real, Vector};
 use crate::solver::kkt::JAC_ROW_STRIDE;
 
 use super::{
-    LagrangeState, MAX_PROJECTION_ITERATIONS, WARM_START_LIMIT, displace, kkt_err,
+    Island, MAX_PROJECTION_ITERATIONS, WARM_START_LIMIT, Warning, displace, kkt_err,
     projection_tolerance,
 };
 
-impl LagrangeState {
+impl Island {
     /// Projects the bodies onto the position constraints (see the module docs) and feeds the
     /// correction into the velocity.
     pub(super) fn project_positions(
@@ -61,14 +61,16 @@ impl LagrangeState {
             previous = residual;
         }
         self.reg_scale = 1.0;
-        self.diagnostics.projection_iterations = iterations;
-        self.diagnostics.projection_residual = self.diagnostics.projection_residual.max(residual);
-        if residual > 1e3 * tol && !self.warned_projection {
-            self.warned_projection = true;
-            self.diagnostics.warnings.push(format!(
-                "t = {time}: position projection stopped at residual {residual:.3e} after \
-                 {iterations} iterations"
-            ));
+        self.report.projection_iterations = iterations;
+        self.report.projection_residual = self.report.projection_residual.max(residual);
+        if residual > 1e3 * tol {
+            self.warn(
+                Warning::Projection,
+                format!(
+                    "t = {time}: position projection stopped at residual {residual:.3e} after \
+                     {iterations} iterations"
+                ),
+            );
         }
         // Feed the correction into the velocity (constrained symplectic Euler).
         for (s, d) in self.st.iter_mut().zip(&self.shift) {

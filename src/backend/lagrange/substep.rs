@@ -5,60 +5,111 @@ use crate::math::rapier::pipeline::PhysicsWorld;
 use crate::math::{Real, Vector};
 use crate::solver::kkt::JAC_ROW_STRIDE;
 
+use crate::output::EnergyLedger;
+
 use super::super::Sets;
+use super::effects::Effects;
 use super::{
-    LagrangeBackend, LagrangeState, gyroscopic_kick, kkt_err, projection_tolerance, rotation_scale,
+    Island, LagrangeBackend, gyroscopic_kick, kkt_err, projection_tolerance, rotation_scale,
 };
 
 impl LagrangeBackend {
-    /// One substep of `h` ending at `t1`. Requires the factorisation at the current state.
+    /// One substep of `h` ending at `t1` for every island: each island's stages up to the
+    /// velocity solve, one Rapier call for all (contacts act), each island's stages from the
+    /// position projection on. Requires each island's factorisation at its current state.
     pub(super) fn substep(&mut self, sets: &mut Sets, h: Real, t1: Real) -> Result<(), Error> {
-        let time = sets.time;
-        let ls = &mut self.ls;
-        let fx = &mut self.fx;
-        ls.kick_momenta(h);
-        let effects = fx.any(sets.joints);
-        // Energy-consistent stops of the second-order step need the energy the substep starts
-        // with (kinetic + potential of constant forces here, springs after the first kick).
-        let energy_fix = effects && ls.second_any && fx.has_elastic_stops(sets.joints);
-        let mut start_energy = if energy_fix { ls.body_energy() } else { 0.0 };
-        let start_ledger = *sets.ledger;
-        if effects {
-            fx.begin_substep();
-            fx.kick(ls, sets, 0.5 * h, t1 - h);
-            if energy_fix {
-                start_energy += fx.spring_energy();
-            }
+        let mut starts = Vec::with_capacity(self.islands.len());
+        for island in &mut self.islands {
+            starts.push(island.before_drift(&mut self.fx, sets, h, t1)?);
+            island.hand_to_rapier(sets.physics, h);
         }
-        ls.solve_velocity(h, time)?;
-        if effects {
-            fx.limits_velocity(ls, sets, h)?;
-            fx.friction(ls, sets, h)?;
+        sets.physics.step();
+        for (island, start) in self.islands.iter_mut().zip(starts) {
+            island.take_from_rapier(sets.physics, h);
+            island.after_drift(&mut self.fx, sets, h, t1, start)?;
+            island.write_back(sets.physics, sets.time)?;
+            island.factor_valid = Some(h);
+            let ledger = core::mem::take(&mut island.ledger);
+            sets.ledger.work += ledger.work;
+            sets.ledger.dissipated += ledger.dissipated;
         }
-        ls.drift_in_rapier(sets.physics, h);
-        ls.project_positions(sets.joints, &sets.physics.bodies, h, time)?;
-        if effects {
-            fx.limits_position(ls, sets, h, projection_tolerance())?;
-        }
-        ls.rows(sets.joints, &sets.physics.bodies, h, true);
-        ls.factor(sets.joints, &sets.physics.bodies, h, time)?;
-        ls.end_momenta(h);
-        if effects {
-            fx.kick(ls, sets, 0.5 * h, t1);
-        }
-        ls.project_velocities(time)?;
-        ls.book_drive_work(sets.joints, sets.ledger);
-        if energy_fix {
-            fx.energy_fix(ls, sets, h, start_energy, start_ledger)?;
-        }
-        ls.write_back(sets.physics, time)?;
-        ls.factor_valid = Some(h);
         sets.joints.update_row_references(&sets.physics.bodies);
         Ok(())
     }
 }
 
-impl LagrangeState {
+/// What an island's substep needs from before the drift to after it.
+struct SubstepStart {
+    /// The island has behaviour to evaluate.
+    effects: bool,
+    /// The energy the substep started with, for the energy-consistent impact of the
+    /// second-order step (`None` without elastic stops or without RATTLE).
+    energy: Option<Real>,
+}
+
+impl Island {
+    /// The stages before the drift: the kick of the forces (and the behaviour's first half
+    /// kick), the velocity solve, the limits and friction at velocity level.
+    fn before_drift(
+        &mut self,
+        fx: &mut Effects,
+        sets: &mut Sets,
+        h: Real,
+        t1: Real,
+    ) -> Result<SubstepStart, Error> {
+        self.ledger = EnergyLedger::default();
+        self.kick_momenta(h);
+        let effects = fx.any(sets.joints, &self.members);
+        // Energy-consistent stops of the second-order step need the energy the substep starts
+        // with (kinetic + potential of constant forces here, springs after the first kick).
+        let energy_fix =
+            effects && self.second_any && fx.has_elastic_stops(sets.joints, &self.members);
+        let mut energy = energy_fix.then(|| self.body_energy());
+        if effects {
+            fx.begin_substep(&self.members);
+            fx.kick(self, sets, 0.5 * h, t1 - h);
+            if let Some(e) = &mut energy {
+                *e += fx.spring_energy(&self.members);
+            }
+        }
+        self.solve_velocity(sets.time)?;
+        if effects {
+            fx.limits_velocity(self, sets, h)?;
+            fx.friction(self, sets, h)?;
+        }
+        Ok(SubstepStart { effects, energy })
+    }
+
+    /// The stages after the drift: the position projection (and the limits at position
+    /// level), the rows and factorisation at `q_(n+1)`, the second half kick, the velocity
+    /// projection, the work of the drives and the energy-consistent impact.
+    fn after_drift(
+        &mut self,
+        fx: &mut Effects,
+        sets: &mut Sets,
+        h: Real,
+        t1: Real,
+        start: SubstepStart,
+    ) -> Result<(), Error> {
+        let time = sets.time;
+        self.project_positions(sets.joints, &sets.physics.bodies, h, time)?;
+        if start.effects {
+            fx.limits_position(self, sets, h, projection_tolerance())?;
+        }
+        self.rows(sets.joints, &sets.physics.bodies, h, true);
+        self.factor(sets.joints, &sets.physics.bodies, h, time)?;
+        self.end_momenta(h);
+        if start.effects {
+            fx.kick(self, sets, 0.5 * h, t1);
+        }
+        self.project_velocities(time)?;
+        self.book_drive_work(sets.joints);
+        if let Some(energy) = start.energy {
+            fx.energy_fix(self, sets, h, energy)?;
+        }
+        Ok(())
+    }
+
     /// Stage 1: the momenta after the kick of the forces (the whole substep first order, half
     /// of it second order) into `rhs_b`, and the velocity targets of the rows into `rhs_j`.
     fn kick_momenta(&mut self, h: Real) {
@@ -90,7 +141,7 @@ impl LagrangeState {
     }
 
     /// Stage 2: the velocity solve at `q_n` (`v'` in `rhs_b`, the impulses in `impulse`).
-    fn solve_velocity(&mut self, _h: Real, time: Real) -> Result<(), Error> {
+    fn solve_velocity(&mut self, time: Real) -> Result<(), Error> {
         let Some(kkt) = self.kkt.as_ref() else {
             return Ok(());
         };
@@ -102,9 +153,9 @@ impl LagrangeState {
         Ok(())
     }
 
-    /// Hands `v'` to Rapier for one substep (gravity and user forces held back, so that it
-    /// integrates exactly `v'`; contacts act), and reads the bodies back.
-    fn drift_in_rapier(&mut self, physics: &mut PhysicsWorld, h: Real) {
+    /// Hands `v'` to Rapier for the substep's drift (gravity and user forces held back, so that
+    /// it integrates exactly `v'`; contacts act).
+    fn hand_to_rapier(&mut self, physics: &mut PhysicsWorld, h: Real) {
         for i in 0..self.bodies.len() {
             let x = self.rhs_b[i];
             let rb = &mut physics.bodies[self.bodies[i]];
@@ -121,7 +172,10 @@ impl LagrangeState {
             };
             rb.set_angvel(w, false);
         }
-        physics.step();
+    }
+
+    /// Reads the bodies back after Rapier's drift (forces restored).
+    fn take_from_rapier(&mut self, physics: &mut PhysicsWorld, h: Real) {
         for i in 0..self.bodies.len() {
             let (gs, f, t) = self.saved[i];
             let rb = &mut physics.bodies[self.bodies[i]];

@@ -1,7 +1,7 @@
 //! The solver's structure: which bodies and rows take part (sleeping islands leave), the KKT
 //! block layout, and which integrator each island takes this step.
 
-use std::collections::HashMap;
+use std::collections::{BTreeMap, HashMap};
 
 use crate::error::Error;
 use crate::joint_set::{JointSet, RapierJoint};
@@ -11,37 +11,108 @@ use crate::settings::{Backend, Integrator};
 use crate::solver::kkt::{JAC_ROW_STRIDE, JointBlockSpec, KktSolver};
 
 use super::super::{Sets, lower};
-use super::{BodyState, LagrangeState};
+use super::{BodyState, Island, LagrangeBackend, Warning};
 
-impl LagrangeState {
+impl LagrangeBackend {
     /// The structure is stale: invalidated, the joints' rows changed, an island fell asleep or
     /// woke, or colliders were added or removed.
     pub(super) fn needs_rebuild(&self, sets: &Sets) -> bool {
         self.dirty
-            || self.kkt.is_none()
             || self.topology != sets.joints.topology()
             || asleep(sets.joints, &sets.physics.bodies) != self.asleep
             || self.colliders != sets.physics.colliders.len()
     }
 
-    /// Rebuilds the body index and the KKT structure after joints (or colliders) were added or
-    /// removed.
+    /// Splits the awake joints into islands (joints connected through dynamic bodies) and
+    /// builds each island's body index and KKT structure.
     pub(super) fn topology(&mut self, sets: &mut Sets) -> Result<(), Error> {
         contact_rows_in_rapier(sets);
         let physics = &*sets.physics;
         self.colliders = physics.colliders.len();
+        let asleep = asleep(sets.joints, &physics.bodies);
+        let groups = island_members(sets.joints, &physics.bodies, &asleep);
+        let old = core::mem::take(&mut self.islands);
+        self.block_of = vec![None; sets.joints.len()];
+        self.island_of = vec![None; sets.joints.len()];
+        for members in groups {
+            let mut island = Island::build(sets, members)?;
+            // A rebuilt island keeps the report of the last step (its redundancy).
+            island.report.redundant_rows = old
+                .iter()
+                .find(|o| o.members.first() == island.members.first())
+                .map_or(0, |o| o.report.redundant_rows);
+            let i = self.islands.len();
+            for (k, &j) in island.blocks.iter().enumerate() {
+                self.block_of[j] = Some((i, k));
+            }
+            for &j in &island.members {
+                self.island_of[j] = Some(i);
+            }
+            self.islands.push(island);
+        }
+        self.asleep = asleep;
+        self.dirty = false;
+        self.topology = sets.joints.topology();
+        Ok(())
+    }
+}
+
+/// The awake joints grouped into islands: joints sharing a dynamic body are in one island
+/// (union-find); each group ascending, the groups by their first joint.
+fn island_members(joints: &JointSet, bodies: &RigidBodySet, asleep: &[bool]) -> Vec<Vec<usize>> {
+    let slots = joints.slots();
+    let mut parent: Vec<usize> = (0..slots.len()).collect();
+    fn root(p: &mut [usize], mut i: usize) -> usize {
+        while p[i] != i {
+            p[i] = p[p[i]];
+            i = p[i];
+        }
+        i
+    }
+    let mut owner: HashMap<RigidBodyHandle, usize> = HashMap::new();
+    for (j, e) in slots.iter().enumerate() {
+        let Some(e) = e else { continue };
+        if asleep.get(j).copied().unwrap_or(false) {
+            continue;
+        }
+        for b in [e.body1, e.body2] {
+            if !bodies[b].is_dynamic() {
+                continue;
+            }
+            match owner.get(&b) {
+                Some(&other) => {
+                    let (ra, rb) = (root(&mut parent, j), root(&mut parent, other));
+                    if ra != rb {
+                        parent[ra.max(rb)] = ra.min(rb);
+                    }
+                }
+                None => {
+                    owner.insert(b, j);
+                }
+            }
+        }
+    }
+    let mut groups: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
+    for (j, e) in slots.iter().enumerate() {
+        if e.is_none() || asleep.get(j).copied().unwrap_or(false) {
+            continue;
+        }
+        let r = root(&mut parent, j);
+        groups.entry(r).or_default().push(j);
+    }
+    groups.into_values().collect()
+}
+
+impl Island {
+    /// The island of the joints `members` (ascending): its bodies, KKT structure and buffers.
+    fn build(sets: &Sets, members: Vec<usize>) -> Result<Island, Error> {
+        let physics = &*sets.physics;
         let mut bodies = Vec::new();
         let mut index = HashMap::new();
         let mut specs = Vec::new();
         let mut blocks = Vec::new();
-        let asleep = asleep(sets.joints, &physics.bodies);
-        for (j, e) in sets.joints.slots().iter().enumerate() {
-            let Some(e) = e else { continue };
-            // A joint whose island sleeps costs nothing: no rows, no bodies (Rapier keeps the
-            // island asleep; it wakes as a whole, and the next step rebuilds with it).
-            if asleep.get(j).copied().unwrap_or(false) {
-                continue;
-            }
+        for &j in &members {
+            let Some(e) = sets.joints.get(j) else { continue };
             let mut slot = |b: RigidBodyHandle| -> Option<usize> {
                 if !physics.bodies[b].is_dynamic() {
                     return None;
@@ -61,31 +132,28 @@ impl LagrangeState {
             });
             blocks.push(j);
         }
-        let has_kinematic = sets.joints.iter().any(|e| {
+        let has_kinematic = members.iter().filter_map(|&j| sets.joints.get(j)).any(|e| {
             physics.bodies[e.body1].is_kinematic() || physics.bodies[e.body2].is_kinematic()
         });
         let kkt = KktSolver::new(bodies.len(), &specs).map_err(|e| Error::Unsupported {
             what: format!("the constraint structure: {e}"),
             hint: "a joint carries at most 12 rows".into(),
         })?;
-        self.size_buffers(bodies.len(), kkt.num_rows());
-        self.has_kinematic = has_kinematic;
-        self.bodies = bodies;
-        self.index = index;
-        self.block_of = vec![None; sets.joints.len()];
-        for (k, &j) in blocks.iter().enumerate() {
-            self.block_of[j] = Some(k);
-        }
-        self.blocks = blocks;
-        self.asleep = asleep;
-        self.shape = Some((
+        let mut island = Island {
+            members,
+            ..Island::default()
+        };
+        island.size_buffers(bodies.len(), kkt.num_rows());
+        island.has_kinematic = has_kinematic;
+        island.bodies = bodies;
+        island.index = index;
+        island.blocks = blocks;
+        island.shape = Some((
             kkt.num_bodies(),
             specs.iter().map(|s| (s.rows, s.bodies)).collect(),
         ));
-        self.kkt = Some(kkt);
-        self.dirty = false;
-        self.topology = sets.joints.topology();
-        Ok(())
+        island.kkt = Some(kkt);
+        Ok(island)
     }
 
     /// Sizes (and clears) every per-body and per-row buffer.
@@ -122,7 +190,7 @@ impl LagrangeState {
         self.second.clear();
         self.second.resize(nb, rattle);
         self.second_any = rattle && nb > 0;
-        self.diagnostics.first_order_bodies = 0;
+        self.report.first_order_bodies = 0;
         if !rattle {
             return;
         }
@@ -160,16 +228,15 @@ impl LagrangeState {
             }
         }
         self.second_any = self.second.iter().any(|x| *x);
-        self.diagnostics.first_order_bodies = fallback;
-        self.diagnostics.first_order_steps += 1;
-        if !self.warned_fallback {
-            self.warned_fallback = true;
-            self.diagnostics.warnings.push(format!(
+        self.report.first_order_bodies = fallback;
+        self.warn(
+            Warning::Fallback,
+            format!(
                 "t = {}: {fallback} bod(ies) in islands with an active contact take the \
                  first-order step while the contact lasts (second order needs smooth forces)",
                 sets.time
-            ));
-        }
+            ),
+        );
     }
 
     /// The solver's bodies with an active contact (their slots).

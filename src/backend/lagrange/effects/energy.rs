@@ -3,11 +3,10 @@
 use crate::behaviour::dof_rows;
 use crate::error::Error;
 use crate::math::{Real, Vector};
-use crate::output::EnergyLedger;
 use crate::rows::RowEval;
 
 use super::super::super::Sets;
-use super::super::LagrangeState;
+use super::super::Island;
 use super::{Effects, frames, responses, row_rate};
 
 impl Effects {
@@ -22,18 +21,16 @@ impl Effects {
     /// zero and the rest booked as dissipated.
     pub(crate) fn energy_fix(
         &mut self,
-        ls: &mut LagrangeState,
+        ls: &mut Island,
         sets: &mut Sets,
         h: Real,
         start: Real,
-        ledger0: EnergyLedger,
     ) -> Result<(), Error> {
-        let Some((j, dof, side)) = self
-            .scratch
-            .iter()
-            .enumerate()
-            .find_map(|(j, s)| s.bounced.first().map(|&(d, s)| (j, d, s)))
-        else {
+        let Some((j, dof, side)) = ls.members.iter().find_map(|&j| {
+            (self.scratch.get(j))
+                .and_then(|s| s.bounced.first())
+                .map(|&(d, s)| (j, d, s))
+        }) else {
             return Ok(());
         };
         let Some(e) = sets.joints.get(j) else {
@@ -52,9 +49,8 @@ impl Effects {
         let Some((dv, dmu)) = responses.first() else {
             return Ok(());
         };
-        let now = ls.body_energy() + self.spring_energy();
-        let expected = start + (sets.ledger.work - ledger0.work)
-            - (sets.ledger.dissipated - ledger0.dissipated);
+        let now = ls.body_energy() + self.spring_energy(&ls.members);
+        let expected = start + ls.ledger.work - ls.ledger.dissipated;
         // Kinetic energy along the response: KE(v + p u) = KE(v) + a1 p + a2 p^2, with the
         // bodies' true inertia.
         let (mut a1, mut a2) = (0.0, 0.0);
@@ -97,9 +93,9 @@ impl Effects {
         for (r, m) in dmu.iter().enumerate() {
             ls.impulse[r] -= p * m;
         }
-        let after = ls.body_energy() + self.spring_energy();
+        let after = ls.body_energy() + self.spring_energy(&ls.members);
         // What could not be kept (clamped cases only; round-off otherwise).
-        sets.ledger.dissipated += expected - after;
+        ls.ledger.dissipated += expected - after;
         let (f2, t2) = &mut self.scratch[j].on_body2;
         *f2 += signed.j2[0] * (p / h);
         *t2 += signed.j2[1] * (p / h);

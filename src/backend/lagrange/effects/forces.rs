@@ -6,14 +6,14 @@ use crate::dof::Dof;
 use crate::math::{Real, Vector};
 
 use super::super::super::Sets;
-use super::super::LagrangeState;
+use super::super::Island;
 use super::{Effects, frames, row_rate};
 
 impl Effects {
     /// Half a kick of the springs, dampers and loads: adds `(h/2) J^T f` to the momentum
     /// buffer `rhs_b` (dynamic bodies by slot) and books the dampers' and loads' work.
-    pub(crate) fn kick(&mut self, ls: &mut LagrangeState, sets: &mut Sets, half: Real, time: Real) {
-        for j in 0..sets.joints.len() {
+    pub(crate) fn kick(&mut self, ls: &mut Island, sets: &mut Sets, half: Real, time: Real) {
+        for &j in &ls.members.clone() {
             let Some(e) = sets.joints.get(j) else {
                 continue;
             };
@@ -89,8 +89,8 @@ impl Effects {
                     }
                 }
             }
-            sets.ledger.dissipated += dissipated;
-            sets.ledger.work += work;
+            ls.ledger.dissipated += dissipated;
+            ls.ledger.work += work;
             let s = &mut self.scratch[j];
             s.force = total;
             s.spring_energy = energy;

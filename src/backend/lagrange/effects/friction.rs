@@ -14,7 +14,7 @@ use crate::rows::{FramePair, RowEval, RowKind};
 use crate::solver::kkt::JAC_ROW_STRIDE;
 
 use super::super::super::Sets;
-use super::super::LagrangeState;
+use super::super::Island;
 use super::{Effects, Responses, frames, responses};
 
 /// Passes of the friction solve per substep (each with the normal force updated).
@@ -36,11 +36,11 @@ impl Effects {
     /// The friction stage, after the limits (`v'` in `rhs_b`; see the module docs).
     pub(crate) fn friction(
         &mut self,
-        ls: &mut LagrangeState,
+        ls: &mut Island,
         sets: &mut Sets,
         h: Real,
     ) -> Result<(), Error> {
-        for j in 0..sets.joints.len() {
+        for &j in &ls.members.clone() {
             let Some(e) = sets.joints.get(j) else {
                 continue;
             };
@@ -66,7 +66,7 @@ impl Effects {
                 // (the impulse's kinetic-energy change) overbooks by `p^2 / 2m` per substep.
                 lost -= p * g;
             }
-            sets.ledger.dissipated += lost;
+            ls.ledger.dissipated += lost;
             let (mut f2, mut t2) = (Vector::ZERO, Vector::ZERO);
             for (a, (row, _)) in frows.iter().enumerate() {
                 f2 += row.j2[0] * (out.total[a] / h);
@@ -127,7 +127,7 @@ fn friction_rows(
 }
 
 /// A row's rate for the velocities in `rhs_b`.
-fn rate(ls: &LagrangeState, row: &RowEval, slots: [Option<usize>; 2]) -> Real {
+fn rate(ls: &Island, row: &RowEval, slots: [Option<usize>; 2]) -> Real {
     let mut g = 0.0;
     for (slot, jb) in [(slots[0], row.j1), (slots[1], row.j2)] {
         if let Some(i) = slot {
@@ -147,7 +147,7 @@ fn rate(ls: &LagrangeState, row: &RowEval, slots: [Option<usize>; 2]) -> Real {
               pieces the stage has already computed"
 )]
 fn solve(
-    ls: &mut LagrangeState,
+    ls: &mut Island,
     joints: &JointSet,
     j: usize,
     fr: &Friction,
@@ -251,7 +251,7 @@ fn delassus(frows: &FrictionRows, responses: &Responses) -> Vec<Vec<Real>> {
 /// The normal force (or moment) of joint `j` from its reactions in this substep so far; the
 /// screw's from its thread load.
 fn normal_force(
-    ls: &LagrangeState,
+    ls: &Island,
     joints: &JointSet,
     j: usize,
     fr: &Friction,
@@ -275,7 +275,7 @@ fn normal_force(
 /// The reactions of joint `j` in this substep so far (forces then moments on node J, frame I;
 /// N and N m) from its rows' impulses, and the screw coupling row's multiplier.
 fn reactions(
-    ls: &LagrangeState,
+    ls: &Island,
     e: &JointEntry,
     j: usize,
     f: &FramePair,

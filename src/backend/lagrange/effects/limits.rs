@@ -11,7 +11,7 @@ use crate::math::{Real, Vector};
 use crate::rows::RowEval;
 
 use super::super::super::Sets;
-use super::super::{LagrangeState, displace_state};
+use super::super::{Island, displace_state};
 use super::{Effects, frames, responses, row_rate};
 
 /// Gap (m or rad) beyond which a limit is far enough for the position stage to skip it.
@@ -61,7 +61,7 @@ struct Limited {
 /// Collects the limits predicted active. `level`: velocity (`v` in `rhs_b`, the gap after `h`
 /// predicted from it) or position (the gap now, after the projection).
 fn active(
-    ls: &mut LagrangeState,
+    ls: &mut Island,
     sets: &Sets,
     h: Real,
     velocity_level: bool,
@@ -75,7 +75,7 @@ fn active(
     let mut out = Vec::new();
     // The smallest gap now or predicted after the substep (velocity level).
     let mut near = Real::INFINITY;
-    for j in 0..sets.joints.len() {
+    for &j in &ls.members.clone() {
         let Some(e) = sets.joints.get(j) else {
             continue;
         };
@@ -101,7 +101,9 @@ fn active(
     if velocity_level {
         // Far from every limit (by more than the projection can move a DOF) and nothing
         // pending: the position stage has nothing to do this substep.
-        let pending = sets.joints.iter().any(|e| !e.state.pending.is_empty());
+        let pending = (ls.members.iter())
+            .filter_map(|&j| sets.joints.get(j))
+            .any(|e| !e.state.pending.is_empty());
         ls.limits_clear = out.is_empty() && !pending && near > LIMIT_MARGIN;
     }
     out
@@ -109,7 +111,7 @@ fn active(
 
 /// Joint `j` as the limit stage sees it.
 fn limited(
-    ls: &LagrangeState,
+    ls: &Island,
     sets: &Sets,
     j: usize,
     e: &crate::joint_set::JointEntry,
@@ -248,7 +250,7 @@ impl Effects {
     /// `dx / h`). Returns the impulses.
     fn resolve(
         &mut self,
-        ls: &mut LagrangeState,
+        ls: &mut Island,
         sets: &mut Sets,
         active: &[Active],
         h: Real,
@@ -334,7 +336,7 @@ impl Effects {
                 // A plastic landing removes `p (g- + g+) / 2`; an elastic reversal keeps the
                 // kinetic energy the substep started with (nothing to book).
                 if act.dissipative {
-                    sets.ledger.dissipated -= p[a] * 0.5 * (act.before + after);
+                    ls.ledger.dissipated -= p[a] * 0.5 * (act.before + after);
                     // A lock removes what is left of the approach at the next substep: book
                     // it now (`g+^2 / (2 W)` with `W` the DOF's effective inverse mass).
                     let is_lock = sets.joints.get(act.joint).is_some_and(|e| {
@@ -342,7 +344,7 @@ impl Effects {
                             && e.state.locked[act.dof.index()].is_none()
                     });
                     if is_lock && w[a][a] > 0.0 {
-                        sets.ledger.dissipated += 0.5 * after * after / w[a][a];
+                        ls.ledger.dissipated += 0.5 * after * after / w[a][a];
                     }
                 }
             }
@@ -364,7 +366,7 @@ impl Effects {
     /// The velocity-level limit stage, right after the velocity solve (`v'` in `rhs_b`).
     pub(crate) fn limits_velocity(
         &mut self,
-        ls: &mut LagrangeState,
+        ls: &mut Island,
         sets: &mut Sets,
         h: Real,
     ) -> Result<(), Error> {
@@ -397,7 +399,7 @@ impl Effects {
     /// row joins at the next step.
     pub(crate) fn limits_position(
         &mut self,
-        ls: &mut LagrangeState,
+        ls: &mut Island,
         sets: &mut Sets,
         h: Real,
         tol: Real,
@@ -407,7 +409,7 @@ impl Effects {
         }
         let mut active = active(ls, sets, h, false, tol);
         // Locked DOFs whose row is still pending: hold them at their value (both sides).
-        for j in 0..sets.joints.len() {
+        for &j in &ls.members {
             let Some(e) = sets.joints.get(j) else {
                 continue;
             };

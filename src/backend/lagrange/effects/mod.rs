@@ -35,7 +35,7 @@ use crate::math::rapier::dynamics::RigidBodySet;
 use crate::math::{Real, Vector};
 use crate::rows::{FramePair, RowEval, RowKind};
 
-use super::LagrangeState;
+use super::Island;
 
 /// A joint's ANSYS frame pair, the dynamic-body slots of its two sides and each side's velocity
 /// (linear at the centre of mass, angular).
@@ -95,25 +95,30 @@ impl Effects {
         self.scratch.get(j).cloned().unwrap_or_default()
     }
 
-    /// True when some joint has behaviour the substep must look at.
-    pub(crate) fn any(&self, joints: &JointSet) -> bool {
-        joints
+    /// True when some joint of `members` has behaviour the substep must look at.
+    pub(crate) fn any(&self, joints: &JointSet, members: &[usize]) -> bool {
+        members
             .iter()
+            .filter_map(|&j| joints.get(j))
             .any(|e| !e.joint.behaviour.is_empty() || !e.loads.is_empty())
     }
 
-    /// Some joint has an elastic stop (Lagrange method, not a screw).
-    pub(crate) fn has_elastic_stops(&self, joints: &JointSet) -> bool {
-        joints.iter().any(|e| {
+    /// Some joint of `members` has an elastic stop (Lagrange method, not a screw).
+    pub(crate) fn has_elastic_stops(&self, joints: &JointSet, members: &[usize]) -> bool {
+        members.iter().filter_map(|&j| joints.get(j)).any(|e| {
             !e.joint.behaviour.stops.is_empty()
                 && !matches!(e.joint.method, ConstraintMethod::Penalty { .. })
                 && !matches!(e.joint.kind, JointKind::Screw { .. })
         })
     }
 
-    /// Elastic energy of the joint springs at their last evaluation (J).
-    pub(crate) fn spring_energy(&self) -> Real {
-        self.scratch.iter().map(|s| s.spring_energy).sum()
+    /// Elastic energy of the springs of `members` at their last evaluation (J).
+    pub(crate) fn spring_energy(&self, members: &[usize]) -> Real {
+        members
+            .iter()
+            .filter_map(|&j| self.scratch.get(j))
+            .map(|s| s.spring_energy)
+            .sum()
     }
 
     /// Adds locks engaged during the last step as permanent rows (called at a step's start).
@@ -151,18 +156,21 @@ impl Effects {
         }
     }
 
-    /// Resets the per-substep force accumulators (called before a substep's first kick).
-    pub(crate) fn begin_substep(&mut self) {
-        for s in &mut self.scratch {
-            s.on_body2 = (Vector::ZERO, Vector::ZERO);
-            s.bounced.clear();
+    /// Resets the per-substep force accumulators of `members` (called before a substep's
+    /// first kick).
+    pub(crate) fn begin_substep(&mut self, members: &[usize]) {
+        for &j in members {
+            if let Some(s) = self.scratch.get_mut(j) {
+                s.on_body2 = (Vector::ZERO, Vector::ZERO);
+                s.bounced.clear();
+            }
         }
     }
 }
 
 /// Joint `e`'s ANSYS frame pair at the solver's current body states, the dynamic-body slots of
 /// its two sides, and each side's velocity (linear at the centre of mass, angular).
-fn frames(ls: &LagrangeState, bodies: &RigidBodySet, e: &JointEntry) -> EffectFrames {
+fn frames(ls: &Island, bodies: &RigidBodySet, e: &JointEntry) -> EffectFrames {
     let side = |b| match ls.index.get(&b) {
         Some(&i) => {
             let s = &ls.st[i];
@@ -195,7 +203,7 @@ fn frames(ls: &LagrangeState, bodies: &RigidBodySet, e: &JointEntry) -> EffectFr
 /// inertia 1e-4 kg m^2 on 1 m; the second pass takes a 1e-6 kg m^2 bob from 4e-5 to
 /// round-off). Empty when there is no factorisation.
 fn responses(
-    ls: &LagrangeState,
+    ls: &Island,
     rows: &[(RowEval, [Option<usize>; 2])],
     time: Real,
 ) -> Result<Responses, Error> {
