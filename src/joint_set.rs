@@ -339,18 +339,7 @@ impl JointSet {
                 continue;
             }
             let f = e.low_frames(bodies);
-            for r in e.state.rows.iter_mut() {
-                match r {
-                    RowKind::Screw { reference, .. } => {
-                        *reference = rows::screw_angle(&f, *reference);
-                    }
-                    RowKind::Drive { dof, reference, .. } => {
-                        *reference = rows::dof_measure(&f, *dof, *reference);
-                    }
-                    RowKind::Linear { .. } | RowKind::Angular { .. } | RowKind::Distance { .. } => {
-                    }
-                }
-            }
+            e.update_references(&f);
         }
     }
 }
@@ -410,6 +399,21 @@ impl JointEntry {
                     *length = (f0.p2 - f0.p1).length();
                 }
                 RowKind::Linear { .. } | RowKind::Drive { .. } => {}
+            }
+        }
+    }
+
+    /// Moves the unwrapping references of the screw and drive rows to the frames `f`.
+    pub(crate) fn update_references(&mut self, f: &FramePair) {
+        for r in self.state.rows.iter_mut() {
+            match r {
+                RowKind::Screw { reference, .. } => {
+                    *reference = rows::screw_angle(f, *reference);
+                }
+                RowKind::Drive { dof, reference, .. } => {
+                    *reference = rows::dof_measure(f, *dof, *reference);
+                }
+                RowKind::Linear { .. } | RowKind::Angular { .. } | RowKind::Distance { .. } => {}
             }
         }
     }

@@ -26,6 +26,7 @@ impl Island {
             s.principal = mp.principal_inertia();
             s.principal_inv = mp.inv_principal_inertia;
             s.principal_frame = mp.principal_inertia_local_frame;
+            s.local_com = mp.local_com;
             s.min_inertia = s.principal.min_element();
             s.pose = *rb.position();
             s.refresh_inertia();

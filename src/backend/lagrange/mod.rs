@@ -107,6 +107,8 @@ fn projection_tolerance() -> Real {
 struct BodyState {
     pose: Pose,
     com: Vector,
+    /// The centre of mass in the body's frame.
+    local_com: Vector,
     mass: Real,
     inertia: Matrix,
     inertia_inv: Matrix,
@@ -346,12 +348,19 @@ impl LagrangeBackend {
             };
             island.prepare(sets, h, rebuilt)?;
         }
-        for k in 0..n {
-            let t1 = sets.time + (k + 1) as Real * h;
+        if integrates_alone(sets, &self.islands) {
             for island in &mut self.islands {
-                island.update_drives(sets.joints, t1, h);
+                island.step_alone(&mut self.fx, sets, h, n)?;
+                island.sleep_check(&mut sets.physics.bodies, h * n as Real);
             }
-            self.substep(sets, h, t1)?;
+        } else {
+            for k in 0..n {
+                let t1 = sets.time + (k + 1) as Real * h;
+                for island in &mut self.islands {
+                    island.update_drives(sets.joints, t1, h);
+                }
+                self.substep(sets, h, t1)?;
+            }
         }
         self.collect_reports();
         Ok(())
@@ -495,6 +504,28 @@ impl Island {
         }
         Ok(())
     }
+}
+
+/// The islands can integrate their bodies themselves, without Rapier's pipeline: no collider
+/// (no contact can act), no kinematic body, and every awake dynamic body is jointed (Rapier
+/// would have nothing left to do). Otherwise each substep's drift is Rapier's, contacts and
+/// free bodies included.
+fn integrates_alone(sets: &Sets, islands: &[Island]) -> bool {
+    let physics = &*sets.physics;
+    if !physics.colliders.is_empty() || physics.multibody_joints.multibodies().next().is_some() {
+        return false;
+    }
+    let jointed: usize = islands.iter().map(|i| i.bodies.len()).sum();
+    let mut awake = 0;
+    for (_, rb) in physics.bodies.iter() {
+        if rb.is_kinematic() {
+            return false;
+        }
+        if rb.is_dynamic() && !rb.is_sleeping() {
+            awake += 1;
+        }
+    }
+    awake == jointed
 }
 
 /// Penalty stiffness from `SECJOINT,PNLT` (val > 0 scales the default, val < 0 is absolute).

@@ -1,8 +1,11 @@
 //! One substep of the Lagrange backend, stage by stage (see the parent module's docs).
 
 use crate::error::Error;
+use crate::joint_set::JointSet;
+use crate::math::rapier::dynamics::{RigidBodyHandle, RigidBodySet};
 use crate::math::rapier::pipeline::PhysicsWorld;
-use crate::math::{Real, Vector};
+use crate::math::{Pose, Real, Rotation, Vector};
+use crate::rows::{FramePair, RowKind};
 use crate::solver::kkt::JAC_ROW_STRIDE;
 
 use crate::output::EnergyLedger;
@@ -35,6 +38,111 @@ impl LagrangeBackend {
         }
         sets.joints.update_row_references(&sets.physics.bodies);
         Ok(())
+    }
+}
+
+impl Island {
+    /// One step of `n` substeps of `h` with the island integrating its bodies itself (see
+    /// `integrates_alone`): the states stay in the solver from substep to substep and go
+    /// back to Rapier once, at the end.
+    pub(super) fn step_alone(
+        &mut self,
+        fx: &mut Effects,
+        sets: &mut Sets,
+        h: Real,
+        n: usize,
+    ) -> Result<(), Error> {
+        for k in 0..n {
+            let t1 = sets.time + (k + 1) as Real * h;
+            self.update_drives(sets.joints, t1, h);
+            let start = self.before_drift(fx, sets, h, t1)?;
+            self.drift(h);
+            self.after_drift(fx, sets, h, t1, start)?;
+            if k + 1 == n {
+                self.write_back(sets.physics, sets.time)?;
+            }
+            self.factor_valid = Some(h);
+            let ledger = core::mem::take(&mut self.ledger);
+            sets.ledger.work += ledger.work;
+            sets.ledger.dissipated += ledger.dissipated;
+            self.update_row_references(sets.joints, &sets.physics.bodies);
+        }
+        Ok(())
+    }
+
+    /// The drift of a substep, as Rapier's integration does it (so that a world gives the same
+    /// motion to the bit whichever of the two integrates): the centre of mass moves by `v h`,
+    /// the rotation by the linearised quaternion update `normalize((1, w h / 2) q)` (second-order
+    /// bodies take `w` scaled so that it turns by exactly `|w| h`, see [`rotation_scale`]).
+    fn drift(&mut self, h: Real) {
+        for i in 0..self.bodies.len() {
+            let x = self.rhs_b[i];
+            let v = Vector::new(x[0], x[1], x[2]);
+            let w = Vector::new(x[3], x[4], x[5]);
+            let spin = if self.second[i] {
+                w * rotation_scale(w, h)
+            } else {
+                w
+            };
+            let s = &mut self.st[i];
+            let com = s.pose.translation + s.pose.rotation * s.local_com;
+            let hang = spin * (h * 0.5);
+            let rotation = (Rotation::from_xyzw(hang.x, hang.y, hang.z, 1.0) * s.pose.rotation)
+                .normalize();
+            let com = com + v * h;
+            s.pose = Pose::from_parts(com + rotation * (-s.local_com), rotation);
+            s.com = s.pose * s.local_com;
+            s.linvel = v;
+            s.angvel = w;
+            s.refresh_inertia();
+        }
+    }
+
+    /// Puts the island to sleep, as Rapier would (its bodies all slower than their activation
+    /// thresholds for `time_until_sleep`), after a step of `dt` integrated by the island itself.
+    pub(super) fn sleep_check(&self, bodies: &mut RigidBodySet, dt: Real) {
+        let mut all = !self.bodies.is_empty();
+        for b in &self.bodies {
+            let rb = &mut bodies[*b];
+            let (v2, w2) = (rb.linvel().length_squared(), rb.angvel().length_squared());
+            let act = rb.activation_mut();
+            let lin = act.normalized_linear_threshold;
+            let ang = act.angular_threshold;
+            let still = lin >= 0.0 && ang >= 0.0 && v2 < lin * lin && w2 < ang * ang;
+            act.time_since_can_sleep = if still {
+                act.time_since_can_sleep + dt
+            } else {
+                0.0
+            };
+            all &= act.time_since_can_sleep >= act.time_until_sleep;
+        }
+        if all {
+            for b in &self.bodies {
+                bodies[*b].sleep();
+            }
+        }
+    }
+
+    /// Moves the unwrapping references of the island's screw and drive rows to the solver's
+    /// current states (see `JointSet::update_row_references`).
+    fn update_row_references(&self, joints: &mut JointSet, bodies: &RigidBodySet) {
+        for &j in &self.members {
+            let Some(e) = joints.get_mut(j) else { continue };
+            if !e
+                .state
+                .rows
+                .iter()
+                .any(|r| matches!(r, RowKind::Screw { .. } | RowKind::Drive { .. }))
+            {
+                continue;
+            }
+            let side = |b: RigidBodyHandle| match self.index.get(&b) {
+                Some(&i) => (self.st[i].pose, self.st[i].com),
+                None => crate::body::pose_and_com(&bodies[b]),
+            };
+            let f = FramePair::at(&e.low, side(e.body1), side(e.body2));
+            e.update_references(&f);
+        }
     }
 }
 
