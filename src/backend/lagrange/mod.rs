@@ -257,6 +257,7 @@ pub(crate) struct Island {
     /// Position multipliers of this substep's projection (the displacement is `M~^-1 J^T mu`),
     /// the warm start of the next one.
     mu: Vec<Real>,
+    mu_prev: Vec<Real>,
     rhs_b: Vec<[Real; 6]>,
     rhs_j: Vec<Real>,
     /// Applied impulse per row accumulated over the current substep (N s).
