@@ -207,6 +207,18 @@ pub struct RowEval {
 }
 
 impl RowKind {
+    /// The value alone at the configuration `f` (the same as [`RowKind::eval`]'s, without the
+    /// Jacobian's cross products).
+    pub fn value(self, f: &FramePair) -> Real {
+        match self {
+            RowKind::Linear { axis } => f.r1.col(axis).dot(f.p2 - f.p1),
+            RowKind::Angular { a, b, target } => f.r1.col(a).dot(f.r2.col(b)) - target,
+            RowKind::Distance { .. } | RowKind::Drive { .. } | RowKind::Screw { .. } => {
+                self.eval(f).value
+            }
+        }
+    }
+
     /// Value and Jacobian at the configuration `f`.
     pub fn eval(self, f: &FramePair) -> RowEval {
         match self {

@@ -11,6 +11,15 @@ use crate::math::{Pose, Real, Vector};
 use crate::rows::{FramePair, RowKind};
 use crate::solver::kkt::JAC_ROW_STRIDE;
 
+/// What an evaluation of the rows computes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Eval {
+    /// The values only.
+    Values,
+    /// The values and the Jacobian.
+    Geometry,
+}
+
 use super::{
     DEFAULT_PENALTY_DISP, DEFAULT_PENALTY_ROT, Island, REGULARISATION, Warning, kkt_err,
     penalty_stiffness,
@@ -67,30 +76,58 @@ impl Island {
 
     /// Evaluates every row at the bodies' current state (`st`); with `jacobian`, also fills the
     /// Jacobian arena, the compliances and the kinematic terms.
-    pub(super) fn rows(
-        &mut self,
-        joints: &JointSet,
-        bodies: &RigidBodySet,
-        h: Real,
-        jacobian: bool,
-    ) {
+    pub(super) fn rows(&mut self, joints: &JointSet, bodies: &RigidBodySet, h: Real, jacobian: bool) {
+        if jacobian {
+            self.eval_rows(joints, bodies, Eval::Geometry);
+            self.constraint_terms(joints, bodies, h);
+        } else {
+            self.eval_rows(joints, bodies, Eval::Values);
+        }
+    }
+
+    /// Evaluates every row at the bodies' current state (`st`): the values, and with
+    /// [`Eval::Geometry`] the Jacobian arena too.
+    pub(super) fn eval_rows(&mut self, joints: &JointSet, bodies: &RigidBodySet, what: Eval) {
         let Some(kkt) = self.kkt.as_ref() else { return };
         for (k, &j) in self.blocks.iter().enumerate() {
             let Some(e) = joints.get(j) else { continue };
             let slots = kkt.joint_specs()[k].bodies;
             let st = &self.st;
-            let side = |b: RigidBodyHandle, slot: Option<usize>| -> (Pose, Vector, Option<usize>) {
+            let side = |b: RigidBodyHandle, slot: Option<usize>| -> (Pose, Vector) {
                 match slot {
-                    Some(i) => (st[i].pose, st[i].com, Some(i)),
-                    None => {
-                        let rb = &bodies[b];
-                        (*rb.position(), rb.center_of_mass(), None)
-                    }
+                    Some(i) => (st[i].pose, st[i].com),
+                    None => crate::body::pose_and_com(&bodies[b]),
                 }
             };
-            let (p1, c1, i1) = side(e.body1, slots[0]);
-            let (p2, c2, i2) = side(e.body2, slots[1]);
-            let f = FramePair::at(&e.low, (p1, c1), (p2, c2));
+            let f = FramePair::at(&e.low, side(e.body1, slots[0]), side(e.body2, slots[1]));
+            let r0 = kkt.row_offset(k);
+            for (n, row) in e.state.rows.iter().enumerate() {
+                let r = r0 + n;
+                if what == Eval::Values {
+                    self.value[r] = row.value(&f);
+                    continue;
+                }
+                let ev = row.eval(&f);
+                self.value[r] = ev.value;
+                let out = &mut self.jac[JAC_ROW_STRIDE * r..JAC_ROW_STRIDE * (r + 1)];
+                for a in 0..3 {
+                    out[a] = ev.j1[0][a];
+                    out[3 + a] = ev.j1[1][a];
+                    out[6 + a] = ev.j2[0][a];
+                    out[9 + a] = ev.j2[1][a];
+                }
+            }
+        }
+    }
+
+    /// From the Jacobian arena and the bodies' current states: each row's kinematic term (the
+    /// rate a non-dynamic side gives it), whether it is a penalty row and its stiffness, and
+    /// its compliance.
+    pub(super) fn constraint_terms(&mut self, joints: &JointSet, bodies: &RigidBodySet, h: Real) {
+        let Some(kkt) = self.kkt.as_ref() else { return };
+        for (k, &j) in self.blocks.iter().enumerate() {
+            let Some(e) = joints.get(j) else { continue };
+            let [i1, i2] = kkt.joint_specs()[k].bodies;
             let (kd, kr) = match e.joint.method {
                 ConstraintMethod::Lagrange => (None, None),
                 ConstraintMethod::Penalty { disp, rot } => (
@@ -101,21 +138,17 @@ impl Island {
             let r0 = kkt.row_offset(k);
             for (n, row) in e.state.rows.iter().enumerate() {
                 let r = r0 + n;
-                let ev = row.eval(&f);
-                self.value[r] = ev.value;
-                if !jacobian {
-                    continue;
-                }
-                let out = &mut self.jac[JAC_ROW_STRIDE * r..JAC_ROW_STRIDE * (r + 1)];
-                for a in 0..3 {
-                    out[a] = ev.j1[0][a];
-                    out[3 + a] = ev.j1[1][a];
-                    out[6 + a] = ev.j2[0][a];
-                    out[9 + a] = ev.j2[1][a];
-                }
+                let jr = &self.jac[JAC_ROW_STRIDE * r..JAC_ROW_STRIDE * (r + 1)];
+                let half = |o: usize| {
+                    [
+                        Vector::new(jr[o], jr[o + 1], jr[o + 2]),
+                        Vector::new(jr[o + 3], jr[o + 4], jr[o + 5]),
+                    ]
+                };
+                let (j1, j2) = (half(0), half(6));
                 // Velocity of a non-dynamic side (kinematic bodies; zero for fixed ones).
                 let mut kin = 0.0;
-                for (slot, b, jb) in [(i1, e.body1, ev.j1), (i2, e.body2, ev.j2)] {
+                for (slot, b, jb) in [(i1, e.body1, j1), (i2, e.body2, j2)] {
                     if slot.is_none() {
                         let rb = &bodies[b];
                         kin += jb[0].dot(rb.linvel()) + jb[1].dot(rb.angvel());
@@ -138,7 +171,7 @@ impl Island {
                     // that relative amount only.
                     None => {
                         let mut a = 0.0;
-                        for (slot, jb) in [(i1, ev.j1), (i2, ev.j2)] {
+                        for (slot, jb) in [(i1, j1), (i2, j2)] {
                             if let Some(i) = slot {
                                 let s = &self.st[i];
                                 a += jb[0].length_squared() / s.mass

@@ -9,6 +9,7 @@ use crate::math::rapier::dynamics::RigidBodySet;
 use crate::math::{Matrix, Real, Vector};
 use crate::solver::kkt::JAC_ROW_STRIDE;
 
+use super::assemble::Eval;
 use super::{
     Island, MAX_PROJECTION_ITERATIONS, WARM_START_LIMIT, Warning, displace, kkt_err,
     projection_tolerance,
@@ -38,8 +39,10 @@ impl Island {
         let mut previous = Real::INFINITY;
         let mut newton = false;
         for it in 0..=MAX_PROJECTION_ITERATIONS {
+            // The Jacobian is evaluated with the values: the last evaluation is the Jacobian at
+            // `q_(n+1)` (the chord steps use the factorisation, not these).
             if !core::mem::take(&mut self.fresh_values) {
-                self.rows(joints, bodies, h, false);
+                self.eval_rows(joints, bodies, Eval::Geometry);
             }
             residual = self.projection_targets(h);
             if residual <= tol || it == MAX_PROJECTION_ITERATIONS {
@@ -55,7 +58,6 @@ impl Island {
             if newton {
                 self.rows(joints, bodies, h, true);
                 self.factor(joints, bodies, h, time)?;
-                self.rows(joints, bodies, h, false);
             }
             self.projection_step(h, time)?;
             previous = residual;
@@ -78,6 +80,9 @@ impl Island {
             s.angvel += Vector::new(d[3], d[4], d[5]) / h;
             s.refresh_inertia();
         }
+        // The rows' values and Jacobian are those at `q_(n+1)` now; their compliances with the
+        // inertia there.
+        self.constraint_terms(joints, bodies, h);
         Ok(())
     }
 
@@ -223,7 +228,7 @@ impl Island {
 
     /// Largest deviation of any row from its projection target at the current state.
     fn residual(&mut self, joints: &JointSet, bodies: &RigidBodySet, h: Real) -> Real {
-        self.rows(joints, bodies, h, false);
+        self.eval_rows(joints, bodies, Eval::Geometry);
         self.fresh_values = true;
         let mut residual: Real = 0.0;
         for r in 0..self.value.len() {

@@ -200,11 +200,12 @@ impl Island {
         start: SubstepStart,
     ) -> Result<(), Error> {
         let time = sets.time;
+        // The projection leaves the rows evaluated at `q_(n+1)`; a limit projected back at
+        // position level moves the bodies again.
         self.project_positions(sets.joints, &sets.physics.bodies, h, time)?;
-        if start.effects {
-            fx.limits_position(self, sets, h, projection_tolerance())?;
+        if start.effects && fx.limits_position(self, sets, h, projection_tolerance())? {
+            self.rows(sets.joints, &sets.physics.bodies, h, true);
         }
-        self.rows(sets.joints, &sets.physics.bodies, h, true);
         self.factor(sets.joints, &sets.physics.bodies, h, time)?;
         self.end_momenta(h);
         if start.effects {

@@ -396,16 +396,16 @@ impl Effects {
 
     /// The position-level limit stage after the projection: limits violated by more than
     /// `tol` are projected back; locks engaged this step are held at their values until their
-    /// row joins at the next step.
+    /// row joins at the next step. Returns whether it moved bodies.
     pub(crate) fn limits_position(
         &mut self,
         ls: &mut Island,
         sets: &mut Sets,
         h: Real,
         tol: Real,
-    ) -> Result<(), Error> {
+    ) -> Result<bool, Error> {
         if ls.limits_clear {
-            return Ok(());
+            return Ok(false);
         }
         let mut active = active(ls, sets, h, false, tol);
         // Locked DOFs whose row is still pending: hold them at their value (both sides).
@@ -443,9 +443,9 @@ impl Effects {
             }
         }
         if active.is_empty() {
-            return Ok(());
+            return Ok(false);
         }
         self.resolve(ls, sets, &active, h, false)?;
-        Ok(())
+        Ok(true)
     }
 }
