@@ -76,7 +76,13 @@ impl Island {
 
     /// Evaluates every row at the bodies' current state (`st`); with `jacobian`, also fills the
     /// Jacobian arena, the compliances and the kinematic terms.
-    pub(super) fn rows(&mut self, joints: &JointSet, bodies: &RigidBodySet, h: Real, jacobian: bool) {
+    pub(super) fn rows(
+        &mut self,
+        joints: &JointSet,
+        bodies: &RigidBodySet,
+        h: Real,
+        jacobian: bool,
+    ) {
         if jacobian {
             self.eval_rows(joints, bodies, Eval::Geometry);
             self.constraint_terms(joints, bodies, h);

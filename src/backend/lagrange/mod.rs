@@ -238,9 +238,9 @@ pub(crate) struct Island {
     rate: Vec<Real>,
     /// Scale of the hard rows' regularisation (raised by a failing projection).
     reg_scale: Real,
-    /// The last projection step, to undo it: body states before it, its displacement and
-    /// multipliers.
-    backup: Vec<BodyState>,
+    /// The last projection step, to undo it: the bodies' poses and centres of mass before it
+    /// (the projection moves nothing else), its displacement and multipliers.
+    backup: Vec<(Pose, Vector)>,
     last_x: Vec<[Real; 6]>,
     last_lambda: Vec<Real>,
     /// The constraints were found redundant (rank deficient) at the last topology check.
@@ -495,8 +495,8 @@ impl Island {
                 .iter()
                 .map(|&(rows, bodies)| JointBlockSpec { rows, bodies })
                 .collect();
-            let mut kkt = KktSolver::new(*nb, &specs)
-                .map_err(|e| snapshot_error("the KKT structure", e))?;
+            let mut kkt =
+                KktSolver::new(*nb, &specs).map_err(|e| snapshot_error("the KKT structure", e))?;
             if self.factor_valid.is_some() {
                 kkt.factor(&self.mass, &self.jac, &self.compliance)
                     .map_err(|e| snapshot_error("refactorising the KKT system", e))?;
@@ -552,11 +552,10 @@ fn displace_state(s: &mut BodyState, d: [Real; 6]) {
 
 /// Moves a body's centre of mass by `dx` and turns it by the rotation vector `dth` about it.
 fn displace(s: &mut BodyState, dx: Vector, dth: Vector) {
-    let local_com = s.pose.inverse_transform_point(s.com);
     s.com += dx;
     let rot: Rotation = (Rotation::from_scaled_axis(dth) * s.pose.rotation).normalize();
     s.pose.rotation = rot;
-    s.pose.translation = s.com - rot * local_com;
+    s.pose.translation = s.com - rot * s.local_com;
 }
 
 /// The implicit-midpoint gyroscopic update over `dt`: `w' = w - dt I^-1 (w_m x I w_m)` with

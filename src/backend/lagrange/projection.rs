@@ -116,7 +116,9 @@ impl Island {
         };
         kkt.solve(&mut self.rhs_b, &mut self.rhs_j)
             .map_err(|e| kkt_err(e, time))?;
-        self.backup.copy_from_slice(&self.st);
+        for (b, s) in self.backup.iter_mut().zip(&self.st) {
+            *b = (s.pose, s.com);
+        }
         self.last_lambda.copy_from_slice(&self.rhs_j);
         for r in 0..self.rhs_j.len() {
             self.impulse[r] -= self.rhs_j[r] / h;
@@ -138,7 +140,9 @@ impl Island {
     /// Undoes the last chord step, and raises the regularisation for the Gauss-Newton steps
     /// that follow (tenfold at every further failure).
     fn undo_projection_step(&mut self, h: Real, newton: bool) {
-        self.st.copy_from_slice(&self.backup);
+        for (s, b) in self.st.iter_mut().zip(&self.backup) {
+            (s.pose, s.com) = *b;
+        }
         for i in 0..self.bodies.len() {
             for (acc, d) in self.shift[i].iter_mut().zip(self.last_x[i]) {
                 *acc -= d;
@@ -179,7 +183,9 @@ impl Island {
             self.mu_prev.clone_from(&self.mu);
         }
         let Some(kkt) = self.kkt.as_ref() else { return };
-        self.backup.copy_from_slice(&self.st);
+        for (b, s) in self.backup.iter_mut().zip(&self.st) {
+            *b = (s.pose, s.com);
+        }
         for b in self.rhs_b.iter_mut() {
             *b = [0.0; 6];
         }
@@ -217,7 +223,9 @@ impl Island {
         let after = self.residual(joints, bodies, h);
         if !after.is_finite() || after > WARM_START_LIMIT {
             self.fresh_values = false;
-            self.st.copy_from_slice(&self.backup);
+            for (s, b) in self.st.iter_mut().zip(&self.backup) {
+                (s.pose, s.com) = *b;
+            }
             for r in 0..self.mu.len() {
                 self.impulse[r] -= self.mu[r] / h;
                 self.mu[r] = 0.0;

@@ -87,8 +87,8 @@ impl Island {
             let s = &mut self.st[i];
             let com = s.pose.translation + s.pose.rotation * s.local_com;
             let hang = spin * (h * 0.5);
-            let rotation = (Rotation::from_xyzw(hang.x, hang.y, hang.z, 1.0) * s.pose.rotation)
-                .normalize();
+            let rotation =
+                (Rotation::from_xyzw(hang.x, hang.y, hang.z, 1.0) * s.pose.rotation).normalize();
             let com = com + v * h;
             s.pose = Pose::from_parts(com + rotation * (-s.local_com), rotation);
             s.com = s.pose * s.local_com;

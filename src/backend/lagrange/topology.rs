@@ -112,7 +112,9 @@ impl Island {
         let mut specs = Vec::new();
         let mut blocks = Vec::new();
         for &j in &members {
-            let Some(e) = sets.joints.get(j) else { continue };
+            let Some(e) = sets.joints.get(j) else {
+                continue;
+            };
             let mut slot = |b: RigidBodyHandle| -> Option<usize> {
                 if !physics.bodies[b].is_dynamic() {
                     return None;
@@ -171,7 +173,7 @@ impl Island {
         self.kpen = vec![0.0; nr];
         self.rate = vec![0.0; nr];
         self.reg_scale = 1.0;
-        self.backup = vec![BodyState::default(); nb];
+        self.backup = vec![(Pose::IDENTITY, Vector::ZERO); nb];
         self.last_x = vec![[0.0; 6]; nb];
         self.last_lambda = vec![0.0; nr];
         self.mu = vec![0.0; nr];

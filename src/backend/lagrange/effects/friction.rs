@@ -274,13 +274,7 @@ fn normal_force(
 
 /// The reactions of joint `j` in this substep so far (forces then moments on node J, frame I;
 /// N and N m) from its rows' impulses, and the screw coupling row's multiplier.
-fn reactions(
-    ls: &Island,
-    e: &JointEntry,
-    j: usize,
-    f: &FramePair,
-    h: Real,
-) -> ([Real; 6], Real) {
+fn reactions(ls: &Island, e: &JointEntry, j: usize, f: &FramePair, h: Real) -> ([Real; 6], Real) {
     let Some(range) = ls.rows_of(j) else {
         return ([0.0; 6], 0.0);
     };

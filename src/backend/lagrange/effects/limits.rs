@@ -60,13 +60,7 @@ struct Limited {
 
 /// Collects the limits predicted active. `level`: velocity (`v` in `rhs_b`, the gap after `h`
 /// predicted from it) or position (the gap now, after the projection).
-fn active(
-    ls: &mut Island,
-    sets: &Sets,
-    h: Real,
-    velocity_level: bool,
-    tol: Real,
-) -> Vec<Active> {
+fn active(ls: &mut Island, sets: &Sets, h: Real, velocity_level: bool, tol: Real) -> Vec<Active> {
     let stage = Stage {
         h,
         velocity_level,
