@@ -124,11 +124,24 @@ struct BodyState {
 }
 
 impl BodyState {
-    /// World inertia tensor and its inverse at the current rotation.
+    /// World inertia tensor and its inverse at the current rotation (for an isotropic inertia,
+    /// a point mass's or a sphere's, the rotation does not change them).
     fn refresh_inertia(&mut self) {
+        if self.isotropic() {
+            self.inertia = Matrix::from_diagonal(self.principal);
+            self.inertia_inv = Matrix::from_diagonal(self.principal_inv);
+            return;
+        }
         let r = Matrix::from_quat(self.pose.rotation * self.principal_frame);
         self.inertia = r * Matrix::from_diagonal(self.principal) * r.transpose();
         self.inertia_inv = r * Matrix::from_diagonal(self.principal_inv) * r.transpose();
+    }
+
+    /// The three principal moments are equal: the inertia is the same about every axis and
+    /// the gyroscopic torque `-w x I w` vanishes.
+    fn isotropic(&self) -> bool {
+        let p = self.principal;
+        p.x == p.y && p.y == p.z
     }
 }
 
@@ -271,6 +284,10 @@ pub(crate) struct Island {
     second: Vec<bool>,
     /// Some body is integrated by the second-order step in the current step.
     second_any: bool,
+    /// Some joint of the island has behaviour (stops, locks, springs, dampers, friction,
+    /// loads), and some has an elastic stop: set at each step's start.
+    has_effects: bool,
+    has_elastic_stops: bool,
     /// Work done and energy dissipated in the island during the current substep, added to the
     /// world's ledger when the substep ends.
     ledger: EnergyLedger,
@@ -347,7 +364,7 @@ impl LagrangeBackend {
                 redundant_rows: island.report.redundant_rows,
                 ..IslandReport::default()
             };
-            island.prepare(sets, h, rebuilt)?;
+            island.prepare(&self.fx, sets, h, rebuilt)?;
         }
         if integrates_alone(sets, &self.islands) {
             for island in &mut self.islands {
@@ -467,7 +484,15 @@ impl LagrangeBackend {
 impl Island {
     /// A step's start: the bodies from Rapier, and the factorisation unless the last
     /// substep's still holds (same `h`, bodies as written back, structure not rebuilt).
-    fn prepare(&mut self, sets: &Sets, h: Real, rebuilt: bool) -> Result<(), Error> {
+    fn prepare(
+        &mut self,
+        fx: &effects::Effects,
+        sets: &Sets,
+        h: Real,
+        rebuilt: bool,
+    ) -> Result<(), Error> {
+        self.has_effects = fx.any(sets.joints, &self.members);
+        self.has_elastic_stops = fx.has_elastic_stops(sets.joints, &self.members);
         self.gather(&sets.physics.bodies, sets.physics.gravity);
         if rebuilt || !self.factor_holds(h) {
             self.rows(sets.joints, &sets.physics.bodies, h, true);
@@ -564,6 +589,9 @@ fn displace(s: &mut BodyState, dx: Vector, dth: Vector) {
 /// `-w x I w` gains energy every step (measured: the IFToMM slider-crank gained 7 % of its
 /// energy scale per second at h = 1/240 s).
 fn gyroscopic_kick(s: &BodyState, w: Vector, dt: Real) -> Vector {
+    if s.isotropic() {
+        return w;
+    }
     let mut wg = w;
     for _ in 0..GYRO_ITERATIONS {
         let wm = 0.5 * (w + wg);

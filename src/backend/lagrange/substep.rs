@@ -167,11 +167,10 @@ impl Island {
     ) -> Result<SubstepStart, Error> {
         self.ledger = EnergyLedger::default();
         self.kick_momenta(h);
-        let effects = fx.any(sets.joints, &self.members);
+        let effects = self.has_effects;
         // Energy-consistent stops of the second-order step need the energy the substep starts
         // with (kinetic + potential of constant forces here, springs after the first kick).
-        let energy_fix =
-            effects && self.second_any && fx.has_elastic_stops(sets.joints, &self.members);
+        let energy_fix = effects && self.second_any && self.has_elastic_stops;
         let mut energy = energy_fix.then(|| self.body_energy());
         if effects {
             fx.begin_substep(&self.members);
