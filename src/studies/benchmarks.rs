@@ -6,6 +6,7 @@
 //! | [`four_bar_parallelogram`] | IFToMM / MBS A02 with one window (N = 1) | crank, coupler, rocker | 4 revolute z | one, redundant (20 rows, 18 DOFs, mobility 1) |
 //! | [`bricard`] | IFToMM / MBS A04, Bricard's mechanism | 5 rods | 6 revolute | one, overconstrained (30 rows, rank 29, mobility 1) |
 //! | [`slider_crank`] | IFToMM spatial rigid slider-crank | crank, rod, slider | revolute, spherical, universal, translational | one |
+//! | [`mixed`] | the cost scene: independent five-body arms of five joint kinds | 5 per arm | revolute z, spherical, cylindrical z, revolute x, translational | no |
 //!
 //! Every builder returns a [`Benchmark`]: the world, the body handles, the joint ids with the
 //! bodies each joint connects, the hand-computed initial energy, an energy scale to judge energy
@@ -307,6 +308,59 @@ pub fn chain(
         probe,
         5.0,
     ))
+}
+
+/// Bodies per arm of [`mixed`] (and joints per arm).
+pub const MIXED_ARM_BODIES: usize = 5;
+
+/// The cost scene of the performance study (`benches/step.rs`'s `mixed1000` at 200 arms):
+/// `arms` independent arms hanging from the ground, each of five beads of 0.1 kg (isotropic
+/// inertia 1e-3 kg m^2) joined by a revolute z, spherical, cylindrical z, revolute x and
+/// translational joint (MPC184 frames aligned with the global axes), in that order from the
+/// ground down. Arm `a` hangs at `x = 0.5 a` m; joint `k` of an arm sits at `(x, -0.2 k, 0)` and
+/// bead `k` at `(x + 0.02, -0.2 (k + 1), 0.01)`, off its pivot so that the arms move (they fall
+/// and swing in 3D: the translational and cylindrical joints slide). Gravity 9.81 m/s^2 along -Y.
+///
+/// Bodies: arm by arm, beads from the ground down; joints likewise. Probe: the last bead.
+/// `energy_scale` = `m g` per bead times 1 m (the arm's length), summed. Duration 5 s.
+///
+/// Errors: `Error::InvalidSetting` for `arms = 0`.
+pub fn mixed(settings: WorldSettings, arms: usize) -> Result<Benchmark, Error> {
+    if arms == 0 {
+        return Err(Error::InvalidSetting {
+            field: "arms",
+            value: 0.0,
+            reason: "the mixed scene needs at least one arm",
+        });
+    }
+    let kinds = [
+        JointKind::Revolute { axis: Axis::Z },
+        JointKind::Spherical,
+        JointKind::Cylindrical { axis: Axis::Z },
+        JointKind::Revolute { axis: Axis::X },
+        JointKind::Translational,
+    ];
+    let (m, inertia) = (0.1 as Real, 1e-3 as Real);
+    let mut b = Builder::new(settings, Vector::new(0.0, -G, 0.0));
+    let mut potential = 0.0;
+    for arm in 0..arms {
+        let x = arm as Real * 0.5;
+        let mut prev = None;
+        for (k, kind) in kinds.iter().enumerate() {
+            let pivot = Vector::new(x, -0.2 * k as Real, 0.0);
+            let at = pivot + Vector::new(0.02, -0.2, 0.01);
+            potential += m * G * at.y;
+            let bead = b.body(BodySpec::at_rest(at, m, Vector::splat(inertia)));
+            b.joint(prev, Some(bead), Mpc184Joint::new(*kind, pivot))?;
+            prev = Some(bead);
+        }
+    }
+    let probe = Probe {
+        body: b.bodies[b.bodies.len() - 1],
+        local: Vector::ZERO,
+    };
+    let scale = (arms * MIXED_ARM_BODIES) as Real * m * G;
+    Ok(b.finish(potential, scale, probe, 5.0))
 }
 
 /// IFToMM / MBS benchmark A02 with one window (N = 1): the parallelogram four-bar, gravity

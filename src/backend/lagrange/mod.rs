@@ -67,6 +67,7 @@ use crate::error::Error;
 use crate::math::rapier::dynamics::RigidBodyHandle;
 use crate::math::{Matrix, Pose, Real, Rotation, Vector};
 use crate::output::EnergyLedger;
+use crate::rows::RowKind;
 use crate::solver::kkt::KktSolver;
 
 use super::Sets;
@@ -288,6 +289,11 @@ pub(crate) struct Island {
     /// loads), and some has an elastic stop: set at each step's start.
     has_effects: bool,
     has_elastic_stops: bool,
+    /// The island's substeps are the plain kernel ([`Island::step_plain`]): no behaviour and
+    /// no screw or drive row (nothing writes the joint set during the step). Set at each
+    /// step's start (not in a snapshot: the next step sets it).
+    #[cfg_attr(feature = "serde-snapshot", serde(skip))]
+    plain: bool,
     /// Work done and energy dissipated in the island during the current substep, added to the
     /// world's ledger when the substep ends.
     ledger: EnergyLedger,
@@ -367,10 +373,7 @@ impl LagrangeBackend {
             island.prepare(&self.fx, sets, h, rebuilt)?;
         }
         if integrates_alone(sets, &self.islands) {
-            for island in &mut self.islands {
-                island.step_alone(&mut self.fx, sets, h, n)?;
-                island.sleep_check(&mut sets.physics.bodies, h * n as Real);
-            }
+            self.step_islands_alone(sets, h, n)?;
         } else {
             for k in 0..n {
                 let t1 = sets.time + (k + 1) as Real * h;
@@ -493,6 +496,15 @@ impl Island {
     ) -> Result<(), Error> {
         self.has_effects = fx.any(sets.joints, &self.members);
         self.has_elastic_stops = fx.has_elastic_stops(sets.joints, &self.members);
+        self.plain = !self.has_effects
+            && !self.members.iter().any(|&j| {
+                sets.joints.get(j).is_some_and(|e| {
+                    e.state
+                        .rows
+                        .iter()
+                        .any(|r| matches!(r, RowKind::Screw { .. } | RowKind::Drive { .. }))
+                })
+            });
         self.gather(&sets.physics.bodies, sets.physics.gravity);
         if rebuilt || !self.factor_holds(h) {
             self.rows(sets.joints, &sets.physics.bodies, h, true);

@@ -39,9 +39,79 @@ impl LagrangeBackend {
         sets.joints.update_row_references(&sets.physics.bodies);
         Ok(())
     }
+
+    /// One step of `n` substeps of `h` for every island, each integrating its bodies itself
+    /// (see `integrates_alone`). With the `parallel` feature the plain islands (see
+    /// [`Island::step_plain`]) step on rayon's pool first: they read the joint set and the
+    /// bodies outside them (the ground, fixed bodies) and write only their own state, so the
+    /// order does not matter and the result is the serial one to the bit. The first error in
+    /// island order is returned (the world rolls the step back).
+    pub(super) fn step_islands_alone(
+        &mut self,
+        sets: &mut Sets,
+        h: Real,
+        n: usize,
+    ) -> Result<(), Error> {
+        #[cfg(feature = "parallel")]
+        let mut done = {
+            use rayon::prelude::*;
+            let (joints, bodies, time) = (&*sets.joints, &sets.physics.bodies, sets.time);
+            let results: Vec<Option<Result<(), Error>>> = self
+                .islands
+                .par_iter_mut()
+                .with_min_len(4)
+                .map(|island| {
+                    island
+                        .plain
+                        .then(|| island.step_plain(joints, bodies, time, h, n))
+                })
+                .collect();
+            results.into_iter()
+        };
+        for island in &mut self.islands {
+            #[cfg(feature = "parallel")]
+            if let Some(result) = done.next().flatten() {
+                result?;
+                island.write_back(sets.physics, sets.time)?;
+                island.sleep_check(&mut sets.physics.bodies, h * n as Real);
+                continue;
+            }
+            island.step_alone(&mut self.fx, sets, h, n)?;
+            island.sleep_check(&mut sets.physics.bodies, h * n as Real);
+        }
+        Ok(())
+    }
 }
 
 impl Island {
+    /// The substeps of a plain island (no behaviour, no screw or drive row: see
+    /// `Island::plain`), all but the write-back: the kick and velocity solve, the drift, the
+    /// position projection, the factorisation at `q_(n+1)` and the velocity projection, reading
+    /// the joint set and the bodies outside the island only. The same stages as
+    /// [`Island::step_alone`] with everything that cannot act on this island left out, so both
+    /// give the same result to the bit.
+    fn step_plain(
+        &mut self,
+        joints: &JointSet,
+        bodies: &RigidBodySet,
+        time: Real,
+        h: Real,
+        n: usize,
+    ) -> Result<(), Error> {
+        for _ in 0..n {
+            self.ledger = EnergyLedger::default();
+            self.kick_momenta(h);
+            self.solve_velocity(time)?;
+            self.drift(h);
+            self.project_positions(joints, bodies, h, time)?;
+            self.factor(joints, bodies, h, time)?;
+            self.end_momenta(h);
+            self.project_velocities(time)?;
+            self.factor_valid = Some(h);
+        }
+        Ok(())
+    }
+
     /// One step of `n` substeps of `h` with the island integrating its bodies itself (see
     /// `integrates_alone`): the states stay in the solver from substep to substep and go
     /// back to Rapier once, at the end.
@@ -52,6 +122,10 @@ impl Island {
         h: Real,
         n: usize,
     ) -> Result<(), Error> {
+        if self.plain {
+            self.step_plain(sets.joints, &sets.physics.bodies, sets.time, h, n)?;
+            return self.write_back(sets.physics, sets.time);
+        }
         for k in 0..n {
             let t1 = sets.time + (k + 1) as Real * h;
             self.update_drives(sets.joints, t1, h);

@@ -1,11 +1,17 @@
-//! `cargo run --release --bin joint_bench -- [--quick] [--model]`
+//! `cargo run --release --bin joint_bench -- [--quick] [--model] [--cost]`
 //!
 //! The Lagrange backend side by side with Rapier's impulse and multibody joints on the scenes of
 //! the solver issue (single thread, f64): the 90 deg pendulum, revolute chains of 10, 100 and
 //! 1000 links with end-mass ratios 1:1 and 1:1000, the Bricard mechanism (IFToMM A04) and the
 //! parallelogram four-bar (IFToMM A02, one window), and what parts of a scene that do nothing
 //! cost (inactive stops, a sleeping island). Prints a table per scene; `--quick` skips the
-//! 1000-link chains.
+//! 1000-link chains of the accuracy table and the multibody column of the cost table.
+//!
+//! The last table is the cost of every backend beside Rapier alone on the performance issue's
+//! scenes ([`cost`]); the last line printed is `ratio_vs_rapier_max=<x>`, the largest
+//! Lagrange / Rapier-alone ratio over those scenes. `--cost` prints only that table.
+
+mod cost;
 
 use std::time::Instant;
 
@@ -23,13 +29,18 @@ fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     if args.iter().any(|a| a == "--help" || a == "-h") {
         println!(
-            "joint_bench: Lagrange backend vs Rapier impulse and multibody joints\n\nOPTIONS:\n    --quick   skip the 1000-link chains\n    --model   only the section on inactive stops and sleeping islands\n    --help    this text"
+            "joint_bench: Lagrange backend vs Rapier impulse and multibody joints\n\nOPTIONS:\n    --quick   skip the 1000-link chains of the accuracy table and the multibody cost column\n    --model   only the section on inactive stops and sleeping islands\n    --cost    only the cost table (every backend beside Rapier alone)\n    --help    this text"
         );
         return;
     }
     let quick = args.iter().any(|a| a == "--quick");
     if args.iter().any(|a| a == "--model") {
         model_cost();
+        return;
+    }
+    if args.iter().any(|a| a == "--cost") {
+        let worst = cost::cost_table(quick);
+        println!("ratio_vs_rapier_max={worst:.2}");
         return;
     }
     pendulum();
@@ -58,6 +69,8 @@ fn main() {
         |b| benchmarks::four_bar_parallelogram(settings60(b)),
         10.0,
     );
+    let worst = cost::cost_table(quick);
+    println!("ratio_vs_rapier_max={worst:.2}");
 }
 
 fn pendulum() {
