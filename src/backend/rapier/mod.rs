@@ -1,17 +1,25 @@
 //! The Rapier backends: Rapier's own impulse joints (`RapierImpulse`) or multibody joints
 //! (`RapierMultibody`), lowered by [`super::lower`].
 //!
-//! `step` drives Rapier with one substep per call (`num_solver_iterations = 1`, `dt = h`), so
-//! that per-substep forces can be added around each call: the gyroscopic torque `-w x Iw` on
-//! the impulse backend (Rapier's own is off on jointed bodies, see [`crate::body::join`]), and
-//! friction as a force-capped motor ([`friction`]).
+//! The impulse backend steps as a game drives Rapier: one `PhysicsPipeline::step` per step with
+//! `dt` = the step and `num_solver_iterations` = the substeps (Rapier's own substeps), Rapier's
+//! own gyroscopic term on (an angular-momentum-preserving correction per substep); friction is
+//! a force-capped motor set once per step ([`friction`]). Its cost is then Rapier's plus the
+//! reaction recovery and the output (`joint_bench --cost` measures the ratio).
 //!
-//! Reactions are recovered from momentum balance over the last substep ([`reactions`]): the
-//! constraint impulse on each body `p_b = M_b dv_b - h f_b` (gravity, user forces, the
-//! gyroscopic torque) is split among the joints by the mass-weighted least-squares solve
-//! `(J M^-1 J^T) mu = J M^-1 p`, with `J` the joints' own rows ([`crate::rows`]). This sidesteps
-//! Rapier's `ImpulseJoint::impulses`, which are coefficients in a Gram-Schmidt-skewed basis of
-//! the last substep only, and works for multibody joints, which write no impulses back.
+//! The multibody backend drives Rapier with one substep per call (`num_solver_iterations = 1`,
+//! `dt = h`): its `RigidBody` velocities lag one substep behind the multibody's generalized
+//! velocities, which the recovery reads per call.
+//!
+//! Reactions are recovered from momentum balance ([`reactions`]) over the step (impulse) or the
+//! last substep (multibody): the constraint impulse on each body, `p_b = m dv - dt f` and
+//! `l_b = I_1 w_1 - I_0 w_0 - dt tau` (angular momentum at the end and start poses, so that the
+//! gyroscopic term, which moves no angular momentum, needs no estimate; gravity and user
+//! forces in `f`, `tau`), is split among the joints by the mass-weighted least-squares solve
+//! `(J M^-1 J^T) mu = J M^-1 p`, with `J` the joints' own rows ([`crate::rows`]) at the poses
+//! halfway through the span (the constraint forces turn with the bodies over it). This
+//! sidesteps Rapier's `ImpulseJoint::impulses`, which are coefficients in a Gram-Schmidt-skewed
+//! basis of the last substep only, and works for multibody joints, which write no impulses back.
 
 pub(crate) mod friction;
 mod reactions;
@@ -34,10 +42,11 @@ struct BodyStart {
     pose: Pose,
     com: Vector,
     linvel: Vector,
-    angvel: Vector,
-    /// Non-constraint force and torque over the substep (N, N m).
+    /// Non-constraint force and torque over the span (N, N m).
     force: Vector,
     torque: Vector,
+    /// Angular momentum about the centre of mass at the start (kg m^2/s).
+    momentum: Vector,
 }
 
 /// The Rapier backends' state: whether the multibody velocities were set up, and scratch
@@ -54,9 +63,16 @@ pub(crate) struct RapierBackend {
     #[cfg_attr(feature = "serde-snapshot", serde(skip))]
     starts: Vec<(RigidBodyHandle, BodyStart)>,
     #[cfg_attr(feature = "serde-snapshot", serde(skip))]
-    gyro_added: Vec<(RigidBodyHandle, Vector)>,
-    #[cfg_attr(feature = "serde-snapshot", serde(skip))]
     recovery: Option<KktSolver>,
+    /// The time the recorded starts span (s): the step (impulse) or its last substep
+    /// (multibody).
+    #[cfg_attr(feature = "serde-snapshot", serde(skip))]
+    span: Real,
+    /// The jointed dynamic bodies (rebuilt when the joint set changes).
+    #[cfg_attr(feature = "serde-snapshot", serde(skip))]
+    touched: Vec<RigidBodyHandle>,
+    #[cfg_attr(feature = "serde-snapshot", serde(skip))]
+    touched_for: Option<(usize, u64)>,
 }
 
 /// What a step changes in the Rapier backends beyond the bodies: the multibody set (its
@@ -143,7 +159,8 @@ impl RapierBackend {
         Ok(RapierJoint::Multibody(h))
     }
 
-    /// One step: friction motors set from the last reactions, then `n` Rapier calls.
+    /// One step of `n` substeps of `h` (the pipeline's `dt` on entry): friction motors set
+    /// from the last reactions, then one Rapier call (impulse) or `n` (multibody).
     pub(crate) fn step(&mut self, sets: &mut Sets, n: usize) {
         if !self.started {
             self.started = true;
@@ -152,57 +169,69 @@ impl RapierBackend {
             }
         }
         friction::set_motors(sets);
-        for s in 0..n {
-            let last = s + 1 == n;
-            self.begin_substep(sets, last);
+        self.refresh_touched(sets);
+        let h = sets.physics.integration_parameters.dt;
+        if self.multibody {
+            for s in 0..n {
+                if s + 1 == n {
+                    self.record(sets, h);
+                }
+                sets.physics.step();
+            }
+        } else {
+            let p = &mut sets.physics.integration_parameters;
+            p.dt = h * n as Real;
+            p.num_solver_iterations = n;
+            self.record(sets, h * n as Real);
             sets.physics.step();
-            self.end_substep(sets.physics);
         }
     }
 
-    /// Records the jointed bodies' state at the substep's start (the last substep only) and, on
-    /// the impulse backend, adds the gyroscopic torque for the substep.
-    fn begin_substep(&mut self, sets: &mut Sets, record: bool) {
-        self.starts.clear();
-        let mut touched: Vec<RigidBodyHandle> = Vec::new();
+    /// The jointed dynamic bodies, rebuilt when joints were added or removed; on the impulse
+    /// backend each gets Rapier's own gyroscopic term back (see the module docs).
+    fn refresh_touched(&mut self, sets: &mut Sets) {
+        let key = (sets.joints.len(), sets.joints.topology());
+        if self.touched_for == Some(key) {
+            return;
+        }
+        self.touched.clear();
         let mut seen = std::collections::HashSet::new();
         for e in sets.joints.iter() {
             for b in [e.body1, e.body2] {
                 if sets.physics.bodies[b].is_dynamic() && seen.insert(b) {
-                    touched.push(b);
+                    self.touched.push(b);
                 }
             }
         }
-        let g = sets.physics.gravity;
-        for b in touched {
-            let (v, w) = self.velocity(sets.physics, b);
-            let rb = &mut sets.physics.bodies[b];
-            let inertia = crate::body::world_inertia(rb);
-            let gyro = -w.cross(inertia * w);
-            let start = BodyStart {
-                pose: *rb.position(),
-                com: rb.center_of_mass(),
-                linvel: v,
-                angvel: w,
-                force: rb.user_force() + g * (rb.mass() * rb.gravity_scale()),
-                torque: rb.user_torque() + gyro,
-            };
-            if !self.multibody {
-                // Rapier's own gyroscopic term is off on jointed bodies (crate::body::join).
-                rb.add_torque(gyro, false);
-                // Taken off again in end_substep (Rapier's forces persist across steps).
-                self.gyro_added.push((b, gyro));
-            }
-            if record {
-                self.starts.push((b, start));
+        if !self.multibody {
+            for &b in &self.touched {
+                sets.physics.bodies[b].enable_gyroscopic_forces(true);
             }
         }
+        self.touched_for = Some(key);
     }
 
-    /// Takes the substep's gyroscopic torques off again.
-    fn end_substep(&mut self, physics: &mut PhysicsWorld) {
-        for (b, gyro) in self.gyro_added.drain(..) {
-            physics.bodies[b].add_torque(-gyro, false);
+    /// Records the jointed bodies' state at the start of the span the reactions are recovered
+    /// over (`span` s).
+    fn record(&mut self, sets: &Sets, span: Real) {
+        self.starts.clear();
+        self.span = span;
+        let g = sets.physics.gravity;
+        for &b in &self.touched {
+            let (v, w) = self.velocity(sets.physics, b);
+            let rb = &sets.physics.bodies[b];
+            let inertia = crate::body::world_inertia(rb);
+            self.starts.push((
+                b,
+                BodyStart {
+                    pose: *rb.position(),
+                    com: rb.center_of_mass(),
+                    linvel: v,
+                    force: rb.user_force() + g * (rb.mass() * rb.gravity_scale()),
+                    torque: rb.user_torque(),
+                    momentum: inertia * w,
+                },
+            ));
         }
     }
 

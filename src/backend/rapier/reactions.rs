@@ -1,10 +1,11 @@
 //! Reaction recovery on the Rapier backends (see the parent module's docs): the constraint
-//! impulses of the last substep, split among the joints by momentum balance.
+//! impulses over the recorded span (the step, or the multibody's last substep), split among the
+//! joints by momentum balance.
 
 use std::collections::HashMap;
 
 use crate::math::rapier::dynamics::RigidBodyHandle;
-use crate::math::{Real, Vector};
+use crate::math::{Pose, Real, Vector};
 use crate::rows::{FramePair, RowEval};
 use crate::solver::kkt::{JointBlockSpec, KktSolver};
 
@@ -12,9 +13,14 @@ use super::super::Sets;
 use super::RapierBackend;
 
 impl RapierBackend {
-    /// Splits the constraint impulses of the last substep `h` among the joints and writes each
-    /// joint's reaction force and moment into its output.
-    pub(crate) fn write_reactions(&mut self, sets: &mut Sets, h: Real) {
+    /// Splits the constraint impulses of the recorded span among the joints and writes each
+    /// joint's reaction force and moment into its output (the world's substep `_h` is not it on
+    /// the impulse backend: the span is the whole step there).
+    pub(crate) fn write_reactions(&mut self, sets: &mut Sets, _h: Real) {
+        let h = self.span;
+        if h <= 0.0 {
+            return;
+        }
         let starts = core::mem::take(&mut self.starts);
         let index: HashMap<RigidBodyHandle, usize> = starts
             .iter()
@@ -22,7 +28,7 @@ impl RapierBackend {
             .map(|(i, (b, _))| (*b, i))
             .collect();
         let (mass, mut impulse) = self.body_blocks(sets, &starts, h);
-        // Rows at the substep start, the configuration Rapier built its own rows at.
+        // Rows halfway through the span: the constraint forces turn with the bodies over it.
         let mut specs = Vec::new();
         let mut jac: Vec<Real> = Vec::new();
         let mut owner: Vec<(usize, RowEval)> = Vec::new();
@@ -31,9 +37,12 @@ impl RapierBackend {
             if e.state.rows.is_empty() {
                 continue;
             }
-            let pose_of = |b: RigidBodyHandle| match index.get(&b) {
-                Some(&i) => (starts[i].1.pose, starts[i].1.com),
-                None => crate::body::pose_and_com(&sets.physics.bodies[b]),
+            let pose_of = |b: RigidBodyHandle| {
+                let now = crate::body::pose_and_com(&sets.physics.bodies[b]);
+                match index.get(&b) {
+                    Some(&i) => halfway((starts[i].1.pose, starts[i].1.com), now),
+                    None => now,
+                }
             };
             let f = FramePair::at(&e.low, pose_of(e.body1), pose_of(e.body2));
             specs.push(JointBlockSpec {
@@ -83,8 +92,9 @@ impl RapierBackend {
         self.starts = starts;
     }
 
-    /// Per recorded body: the mass block `M_b` and the constraint impulse
-    /// `p_b = M_b dv_b - h f_b` of the last substep.
+    /// Per recorded body: the mass block `M_b` and the constraint impulse over the span `h`,
+    /// `p_b = m dv - h f` and `l_b = I_1 w_1 - I_0 w_0 - h tau` (angular momenta at the end and
+    /// start poses).
     fn body_blocks(
         &self,
         sets: &Sets,
@@ -106,9 +116,17 @@ impl RapierBackend {
             }
             let (v, w) = self.velocity(sets.physics, *b);
             let p = (v - s.linvel) * m - s.force * h;
-            let l = inertia * (w - s.angvel) - s.torque * h;
+            let l = crate::body::world_inertia(rb) * w - s.momentum - s.torque * h;
             impulse[i] = [p.x, p.y, p.z, l.x, l.y, l.z];
         }
         (mass, impulse)
     }
+}
+
+/// The pose and centre of mass halfway between `a` and `b` (translation and centre of mass
+/// linearly, rotation by slerp).
+fn halfway(a: (Pose, Vector), b: (Pose, Vector)) -> (Pose, Vector) {
+    let rotation = a.0.rotation.slerp(b.0.rotation, 0.5);
+    let translation = (a.0.translation + b.0.translation) * 0.5;
+    (Pose::from_parts(translation, rotation), (a.1 + b.1) * 0.5)
 }
