@@ -3,9 +3,11 @@
 //! - `chain100/<backend>`: the 100-link revolute chain of `benchmarks::chain` (0.1 m links,
 //!   0.01 kg beads, released at 20 deg), end-mass ratio 1 so that every backend survives the
 //!   timed steps (Rapier's backends blow up at 1:1000, see `docs/charts/stability_chain.png`);
+//! - `chain100/rapier-alone`, `mixed1000/rapier-alone`: Rapier alone on the same bodies and
+//!   joints (one pipeline call per step, its own 4 substeps): the bar;
 //! - `mixed1000/<backend>`: 1000 joints of five kinds, 200 independent five-body arms hanging from
-//!   the ground: revolute z, spherical, cylindrical z, revolute x and translational (the kinds
-//!   every backend takes), on 1000 bodies, every backend (Rapier multibody runs since each
+//!   the ground (`studies::benchmarks::mixed`): revolute z, spherical, cylindrical z, revolute x
+//!   and translational (the kinds every backend takes), on 1000 bodies, every backend (Rapier multibody runs since each
 //!   grounded multibody joint has its own fixed root: with one shared ground body the 200 arms
 //!   were one multibody and a step took seconds);
 //! - `idle100/<case>` ("model no more than a scene needs", Lagrange): the 100-link chain as built,
@@ -45,41 +47,6 @@ fn settings(backend: Backend) -> WorldSettings {
     }
 }
 
-/// 200 arms of five bodies 0.2 m apart along -Y, each arm offset along X, joined by a revolute z,
-/// spherical, cylindrical z, revolute x and translational joint (1000 joints).
-fn mixed(backend: Backend) -> Result<Mpc184World, Error> {
-    let mut world = Mpc184World::new(settings(backend));
-    let kinds = [
-        JointKind::Revolute { axis: Axis::Z },
-        JointKind::Spherical,
-        JointKind::Cylindrical { axis: Axis::Z },
-        JointKind::Revolute { axis: Axis::X },
-        JointKind::Translational,
-    ];
-    for arm in 0..200 {
-        let x = arm as Real * 0.5;
-        let mut prev = None;
-        for (k, kind) in kinds.iter().enumerate() {
-            let pivot = Vector::new(x, -0.2 * k as Real, 0.0);
-            // Start each bead slightly off the vertical so that the arms move.
-            let at = pivot + Vector::new(0.02, -0.2, 0.01);
-            let body = world.physics.bodies.insert(
-                RigidBodyBuilder::dynamic()
-                    .translation(at)
-                    .additional_mass_properties(MassProperties::new(
-                        Vector::ZERO,
-                        0.1,
-                        Vector::splat(1e-3),
-                    ))
-                    .can_sleep(false),
-            );
-            world.insert_joint(prev, Some(body), Mpc184Joint::new(*kind, pivot))?;
-            prev = Some(body);
-        }
-    }
-    Ok(world)
-}
-
 fn bench(c: &mut Criterion) {
     let mut group = c.benchmark_group("chain100");
     group
@@ -101,6 +68,16 @@ fn bench(c: &mut Criterion) {
             bench.iter(|| black_box(b.world.step().is_ok()));
         });
     }
+    if let Ok(b) = benchmarks::chain(
+        settings(Backend::RapierImpulse),
+        100,
+        CHAIN_LINK_LENGTH,
+        CHAIN_LINK_MASS,
+        1.0,
+        20f64.to_radians() as Real,
+    ) {
+        rapier_alone(&mut group, b.world);
+    }
     group.finish();
 
     let mut group = c.benchmark_group("mixed1000");
@@ -109,8 +86,8 @@ fn bench(c: &mut Criterion) {
         .warm_up_time(Duration::from_millis(500))
         .measurement_time(Duration::from_secs(3));
     for backend in BACKENDS {
-        let mut world = match mixed(backend) {
-            Ok(w) => w,
+        let mut world = match benchmarks::mixed(settings(backend), 200) {
+            Ok(b) => b.world,
             Err(e) => {
                 println!("mixed1000/{}: not run: {e}", backend.name());
                 continue;
@@ -119,6 +96,9 @@ fn bench(c: &mut Criterion) {
         group.bench_function(backend.name(), |bench| {
             bench.iter(|| black_box(world.step().is_ok()));
         });
+    }
+    if let Ok(b) = benchmarks::mixed(settings(Backend::RapierImpulse), 200) {
+        rapier_alone(&mut group, b.world);
     }
     group.finish();
 
@@ -158,6 +138,25 @@ fn bench(c: &mut Criterion) {
         });
     }
     group.finish();
+}
+
+/// Rapier alone on a world built for the impulse backend: the same bodies and Rapier joints,
+/// stepped by one `PhysicsPipeline::step` per iteration with `dt = 1/60` and
+/// `num_solver_iterations = 4` (Rapier's own substeps), no extra rows, no reaction recovery: the
+/// bar each backend is compared with (`joint_bench --cost` prints the ratios).
+fn rapier_alone(
+    group: &mut criterion::BenchmarkGroup<'_, criterion::measurement::WallTime>,
+    mut world: Mpc184World,
+) {
+    let p = &mut world.physics;
+    p.integration_parameters.dt = 1.0 / 60.0;
+    p.integration_parameters.num_solver_iterations = 4;
+    group.bench_function("rapier-alone", |bench| {
+        bench.iter(|| {
+            p.step();
+            black_box(&p.bodies);
+        });
+    });
 }
 
 /// The 100-link chain (Lagrange, ratio 1, 20 deg), optionally with a stop at +-10 rad on every

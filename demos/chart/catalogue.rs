@@ -11,6 +11,47 @@ pub(crate) enum Method {
     Penalty(f64),
     Impulse,
     Multibody,
+    /// Rapier's own pipeline on the impulse lowering, one `PhysicsPipeline::step` per step with
+    /// `num_solver_iterations` = the substeps (the scaling chart only).
+    RapierAlone,
+    /// MuJoCo (PyPI `mujoco`, semi-implicit Euler or RK4; `tight`: loop-closing equality
+    /// constraints at a tightened `solref`): runs read from `peer_runs.csv`, written by
+    /// `scripts/mujoco_peer.py` (never stepped here).
+    MuJoCo {
+        rk4: bool,
+        tight: bool,
+    },
+}
+
+/// The MuJoCo variants, in the order the charts list them.
+pub(crate) const PEERS: [Method; 4] = [
+    Method::MuJoCo {
+        rk4: false,
+        tight: false,
+    },
+    Method::MuJoCo {
+        rk4: true,
+        tight: false,
+    },
+    Method::MuJoCo {
+        rk4: false,
+        tight: true,
+    },
+    Method::MuJoCo {
+        rk4: true,
+        tight: true,
+    },
+];
+
+/// The methods with runs in `runs`: this crate's ([`METHODS`]) then the peers found.
+pub(crate) fn methods_in(runs: &[&Run]) -> Vec<Method> {
+    let mut out = METHODS.to_vec();
+    out.extend(
+        PEERS
+            .iter()
+            .filter(|p| runs.iter().any(|r| r.method == **p)),
+    );
+    out
 }
 
 pub(crate) const METHODS: [Method; 7] = [
@@ -31,13 +72,29 @@ impl Method {
             Method::Penalty(k) => format!("penalty-{k:.0e}"),
             Method::Impulse => "rapier-impulse".into(),
             Method::Multibody => "rapier-multibody".into(),
+            Method::RapierAlone => "rapier-alone".into(),
+            Method::MuJoCo { rk4, tight } => format!(
+                "mujoco-{}{}",
+                if rk4 { "rk4" } else { "euler" },
+                if tight { "-tight" } else { "" }
+            ),
         }
+    }
+
+    /// The method named `name` (as [`Method::name`] writes it), for the CSVs read back.
+    pub(crate) fn from_name(name: &str) -> Option<Method> {
+        METHODS
+            .iter()
+            .chain(&PEERS)
+            .chain(&[Method::RapierAlone])
+            .copied()
+            .find(|m| m.name() == name)
     }
 
     pub(crate) fn backend(self) -> Backend {
         match self {
             Method::Lagrange | Method::Rattle | Method::Penalty(_) => Backend::Lagrange,
-            Method::Impulse => Backend::RapierImpulse,
+            Method::Impulse | Method::RapierAlone | Method::MuJoCo { .. } => Backend::RapierImpulse,
             Method::Multibody => Backend::RapierMultibody,
         }
     }
@@ -51,6 +108,23 @@ impl Method {
             Method::Penalty(_) => RGBColor(140, 86, 75),
             Method::Impulse => RGBColor(214, 39, 40),
             Method::Multibody => RGBColor(44, 160, 44),
+            Method::RapierAlone => RGBColor(227, 119, 194),
+            Method::MuJoCo {
+                rk4: false,
+                tight: false,
+            } => RGBColor(127, 127, 127),
+            Method::MuJoCo {
+                rk4: true,
+                tight: false,
+            } => RGBColor(0, 0, 0),
+            Method::MuJoCo {
+                rk4: false,
+                tight: true,
+            } => RGBColor(23, 190, 207),
+            Method::MuJoCo {
+                rk4: true,
+                tight: true,
+            } => RGBColor(0, 110, 120),
         }
     }
 }
@@ -228,7 +302,7 @@ pub(crate) fn settings(method: Method, dt: f64, substeps: usize) -> WorldSetting
     }
 }
 
-/// Builds `scene` for `method` (`None`: the method does not take the scene).
+/// Builds `scene` for `method` (`None`: the method does not take the scene, or is a peer).
 pub(crate) fn build(
     scene: Scene,
     cfg: &Config,
@@ -236,6 +310,9 @@ pub(crate) fn build(
     dt: f64,
     substeps: usize,
 ) -> Option<Benchmark> {
+    if matches!(method, Method::MuJoCo { .. } | Method::RapierAlone) {
+        return None;
+    }
     with_method(
         scene.build(cfg, settings(method, dt, substeps)).ok()?,
         method,

@@ -25,7 +25,12 @@
 //!   x dt 1/30..1/960 at one substep, 4 s against the exact motion (RK4), per method: blew up /
 //!   branch switch (the coupler turns by more than 0.5 rad: the anti-parallelogram branch) /
 //!   error > 1e-1 m (stuck, turned back or out of phase) / <= 1e-1 m / <= 1e-3 m;
-//! - `scaling_chain.{png,svg}`: cost per step against the number of links (10..1000);
+//! - `scaling_chain.{png,svg}`: cost per step against the number of links (10..1000), with
+//!   Rapier alone (one pipeline call per step, its own 4 substeps) and MuJoCo where measured;
+//! - `reference_<scene>.csv`: each scene's reference trajectory (`t,x,y,z` of the probe), which
+//!   `scripts/mujoco_peer.py` scores MuJoCo's runs against; its `peer_runs.csv` and
+//!   `peer_scaling.csv`, when present in the output directory, add MuJoCo's lines to the
+//!   work-precision, energy and scaling charts and its rows to `summary.md` (see `peers.rs`);
 //! - `summary.md`: per scene the Pareto front, the cheapest run of each method reaching 1e-1 and
 //!   1e-3, and where each method fails.
 //!
@@ -68,6 +73,7 @@ mod catalogue;
 mod config;
 mod maps;
 mod measure;
+mod peers;
 mod plot;
 mod reference;
 mod summary;
@@ -76,6 +82,7 @@ use catalogue::*;
 use config::*;
 use maps::*;
 use measure::*;
+use peers::*;
 use plot::*;
 use reference::*;
 use summary::*;
@@ -181,7 +188,7 @@ fn run(cfg: &Config, out: &Path) -> DynResult<()> {
     std::fs::create_dir_all(out)?;
     let wp_runs = SCENES.len() * METHODS.len() * cfg.rates.len() * cfg.substeps.len();
     let stab = METHODS.len() * cfg.stability_ratios.len() * cfg.substeps.len();
-    let scal = 4 * cfg.scaling_n.len();
+    let scal = 5 * cfg.scaling_n.len();
     let pen = (cfg.penalty_ks.len() + 1) * cfg.penalty_rates.len();
     let sing = METHODS.len() * cfg.singular_deltas.len() * cfg.singular_rates.len();
     let mut progress = Progress {
@@ -197,11 +204,22 @@ fn run(cfg: &Config, out: &Path) -> DynResult<()> {
     if cfg.maps_only {
         return maps_only(cfg, out, &mut progress);
     }
-    let (runs, refs) = sweep(cfg, &mut progress)?;
+    let (mut runs, refs) = sweep(cfg, out, &mut progress)?;
+    // MuJoCo's runs, when `scripts/mujoco_peer.py` has written them (full sweep only: the
+    // script runs the full study's settings).
+    let peers = if cfg.quick {
+        Vec::new()
+    } else {
+        peer_runs(out)?
+    };
+    runs.extend(peers);
     let stability = stability_map(cfg, &mut progress);
     let penalty = penalty_map(cfg, &mut progress);
     let singular = singular_map(cfg, &mut progress);
-    let scaling = scaling(cfg, &mut progress);
+    let mut scaling = scaling(cfg, &mut progress);
+    if !cfg.quick {
+        scaling.extend(peer_scaling(out)?);
+    }
     progress.finish();
     let wall = progress.start.elapsed().as_secs_f64();
 
@@ -263,11 +281,12 @@ type RefNote = (Scene, String, f64);
 
 /// The work-precision sweep: every scene's reference, then every method, rate and substep
 /// count on it.
-fn sweep(cfg: &Config, progress: &mut Progress) -> DynResult<(Vec<Run>, Vec<RefNote>)> {
+fn sweep(cfg: &Config, out: &Path, progress: &mut Progress) -> DynResult<(Vec<Run>, Vec<RefNote>)> {
     let mut runs = Vec::new();
     let mut refs = Vec::new();
     for scene in SCENES {
         let r = reference(scene, cfg)?;
+        write_reference(out, scene, &r.points)?;
         progress.tick(&format!("{} reference", scene.key()));
         for method in METHODS {
             for &rate in &cfg.rates {

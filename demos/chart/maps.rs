@@ -75,6 +75,7 @@ pub(crate) fn scaling(cfg: &Config, progress: &mut Progress) -> Vec<Cost> {
         Method::Penalty(1e6),
         Method::Impulse,
         Method::Multibody,
+        Method::RapierAlone,
     ];
     let min_wall = if cfg.quick { 0.05 } else { 0.5 };
     let mut out = Vec::new();
@@ -84,20 +85,40 @@ pub(crate) fn scaling(cfg: &Config, progress: &mut Progress) -> Vec<Cost> {
             if method == Method::Multibody && n > 100 {
                 continue;
             }
-            let Some(mut b) = chain(settings(method, 1.0 / 60.0, 4), n, 1.0)
-                .ok()
-                .and_then(|b| with_method(b, method))
-            else {
+            let alone = method == Method::RapierAlone;
+            let built = if alone {
+                chain(settings(Method::Impulse, 1.0 / 60.0, 4), n, 1.0).ok()
+            } else {
+                chain(settings(method, 1.0 / 60.0, 4), n, 1.0)
+                    .ok()
+                    .and_then(|b| with_method(b, method))
+            };
+            let Some(mut b) = built else {
                 continue;
             };
+            // Rapier alone: the same bodies and joints, one pipeline call per step with its own
+            // 4 substeps (the game's price).
+            if alone {
+                let p = &mut b.world.physics.integration_parameters;
+                p.dt = 1.0 / 60.0;
+                p.num_solver_iterations = 4;
+            }
+            let step = |b: &mut Benchmark| {
+                if alone {
+                    b.world.physics.step();
+                    Ok(())
+                } else {
+                    b.world.step()
+                }
+            };
             // Two warm-up steps (first factorisation, Rapier's set-up), then timed steps.
-            if (0..2).any(|_| b.world.step().is_err()) {
+            if (0..2).any(|_| step(&mut b).is_err()) {
                 continue;
             }
             let (mut busy, mut steps) = (0.0, 0usize);
             while (busy < min_wall || steps < 3) && steps < 300 {
                 let t0 = Instant::now();
-                let r = b.world.step();
+                let r = step(&mut b);
                 busy += t0.elapsed().as_secs_f64();
                 steps += 1;
                 if r.is_err() {

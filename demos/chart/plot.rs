@@ -107,7 +107,7 @@ pub(crate) fn draw_convergence<DB: DrawingBackend>(
 where
     DB::ErrorType: 'static,
 {
-    let all: Vec<(Method, Vec<(f64, f64)>)> = METHODS
+    let all: Vec<(Method, Vec<(f64, f64)>)> = methods_in(runs)
         .iter()
         .map(|m| (*m, by_substep(runs, *m)))
         .filter(|(_, p)| !p.is_empty())
@@ -265,7 +265,7 @@ where
     DB::ErrorType: 'static,
 {
     let y = |r: &Run| (if energy { r.energy } else { r.traj }).max(ERR_FLOOR);
-    for method in METHODS {
+    for method in methods_in(shown) {
         let mine: Vec<&Run> = shown
             .iter()
             .copied()
@@ -477,6 +477,8 @@ where
         Method::Penalty(1e6),
         Method::Impulse,
         Method::Multibody,
+        Method::RapierAlone,
+        PEERS[0],
     ] {
         let pts: Vec<(f64, f64)> = costs
             .iter()

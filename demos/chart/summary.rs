@@ -98,7 +98,7 @@ pub(crate) fn summary(
             s,
             "\n| method | runs ok/failed/skipped | cheapest <= 1e-1 m | cheapest <= 1e-3 m | cheapest <= 1e-5 m | order in h | best error | failures |\n|---|---|---|---|---|---|---|---|"
         );
-        for method in METHODS {
+        for method in methods_in(&rs) {
             method_row(&mut s, &rs, method);
         }
         let _ = writeln!(s);
