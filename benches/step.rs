@@ -140,17 +140,14 @@ fn bench(c: &mut Criterion) {
     group.finish();
 }
 
-/// Rapier alone on a world built for the impulse backend: the same bodies and Rapier joints,
-/// stepped by one `PhysicsPipeline::step` per iteration with `dt = 1/60` and
-/// `num_solver_iterations = 4` (Rapier's own substeps), no extra rows, no reaction recovery: the
-/// bar each backend is compared with (`joint_bench --cost` prints the ratios).
+/// Rapier alone (`benchmarks::rapier_alone`) on a world built for the impulse backend: the bar
+/// each backend is compared with (`joint_bench --cost` prints the ratios).
 fn rapier_alone(
     group: &mut criterion::BenchmarkGroup<'_, criterion::measurement::WallTime>,
     mut world: Mpc184World,
 ) {
+    benchmarks::rapier_alone(&mut world);
     let p = &mut world.physics;
-    p.integration_parameters.dt = 1.0 / 60.0;
-    p.integration_parameters.num_solver_iterations = 4;
     group.bench_function("rapier-alone", |bench| {
         bench.iter(|| {
             p.step();

@@ -68,8 +68,9 @@ pub(crate) fn mass_defect(rb: &RigidBody) -> Option<String> {
 /// Prepares a body that a joint now connects: its mass properties filled in now (Rapier does it
 /// lazily at the first step; the energies, the reaction recovery and the initial output need
 /// them), and on a dynamic body Rapier's own gyroscopic term off and no angular-velocity cap:
-/// the backends add `-w x Iw` themselves, so that the momentum balance that recovers reactions
-/// knows every non-constraint torque.
+/// the Lagrange backend integrates `-w x Iw` itself (implicit midpoint), multibody links get it
+/// from the multibody dynamics, and the Rapier impulse backend turns Rapier's own back on
+/// (its reaction recovery balances angular momentum, which the term does not change).
 pub(crate) fn join(bodies: &mut RigidBodySet, colliders: &ColliderSet, h: RigidBodyHandle) {
     let rb = &mut bodies[h];
     rb.recompute_mass_properties_from_colliders(colliders);

@@ -99,9 +99,7 @@ pub(crate) fn scaling(cfg: &Config, progress: &mut Progress) -> Vec<Cost> {
             // Rapier alone: the same bodies and joints, one pipeline call per step with its own
             // 4 substeps (the game's price).
             if alone {
-                let p = &mut b.world.physics.integration_parameters;
-                p.dt = 1.0 / 60.0;
-                p.num_solver_iterations = 4;
+                benchmarks::rapier_alone(&mut b.world);
             }
             let step = |b: &mut Benchmark| {
                 if alone {

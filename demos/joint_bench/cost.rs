@@ -127,11 +127,9 @@ fn rapier_alone(scene: &Scene) -> Timed {
             };
         }
     };
-    let p = &mut b.world.physics;
-    p.integration_parameters.dt = 1.0 / 60.0;
-    p.integration_parameters.num_solver_iterations = 4;
+    benchmarks::rapier_alone(&mut b.world);
     time(|| {
-        p.step();
+        b.world.physics.step();
         Ok::<(), String>(())
     })
 }

@@ -284,13 +284,11 @@ fn chains(quick: bool) {
             if let Ok(mut b) =
                 benchmarks::chain(settings, n, 0.1, 0.01, ratio, 20f64.to_radians() as Real)
             {
-                let p = &mut b.world.physics;
-                p.integration_parameters.dt = 1.0 / 60.0;
-                p.integration_parameters.num_solver_iterations = 4;
+                benchmarks::rapier_alone(&mut b.world);
                 let steps = 60;
                 let t0 = Instant::now();
                 for _ in 0..steps {
-                    p.step();
+                    b.world.physics.step();
                 }
                 let us = t0.elapsed().as_secs_f64() * 1e6 / steps as f64;
                 println!(

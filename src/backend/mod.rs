@@ -213,12 +213,13 @@ impl JointBackend {
 
     /// Advances the world by `n` substeps of `h`.
     pub(crate) fn step(&mut self, sets: &mut Sets, h: Real, n: usize) -> Result<(), Error> {
+        // One Rapier call per substep (the Rapier impulse backend sets its own: one per step).
         sets.physics.integration_parameters.dt = h;
         sets.physics.integration_parameters.num_solver_iterations = 1;
         match self {
             JointBackend::Lagrange(l) => l.step(sets, h, n),
             JointBackend::Rapier(r) => {
-                r.step(sets, n);
+                r.step(sets, h, n);
                 Ok(())
             }
         }

@@ -310,6 +310,19 @@ pub fn chain(
     ))
 }
 
+/// Makes `world` (built on the `RapierImpulse` backend) "Rapier alone": the same bodies and
+/// Rapier joints stepped as a game steps Rapier itself, one `PhysicsPipeline::step` per step
+/// with `dt` = the world's step and `num_solver_iterations` = its substeps (Rapier's own
+/// substeps), with no extra rows, no reaction recovery and no outputs: the bar the cost
+/// studies compare every backend with. Step it with `world.physics.step()` afterwards (the
+/// world's own `step` sets these parameters back).
+pub fn rapier_alone(world: &mut Mpc184World) {
+    let s = *world.settings();
+    let p = &mut world.physics.integration_parameters;
+    p.dt = s.dt;
+    p.num_solver_iterations = s.substeps;
+}
+
 /// Bodies per arm of [`mixed`] (and joints per arm).
 pub const MIXED_ARM_BODIES: usize = 5;
 

@@ -99,7 +99,6 @@ impl Island {
         n: usize,
     ) -> Result<(), Error> {
         for _ in 0..n {
-            self.ledger = EnergyLedger::default();
             self.kick_momenta(h);
             self.solve_velocity(time)?;
             self.drift(h);

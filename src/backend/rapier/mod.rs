@@ -68,11 +68,11 @@ pub(crate) struct RapierBackend {
     /// (multibody).
     #[cfg_attr(feature = "serde-snapshot", serde(skip))]
     span: Real,
-    /// The jointed dynamic bodies (rebuilt when the joint set changes).
+    /// The jointed dynamic bodies, and the joint set's topology counter they were listed at.
     #[cfg_attr(feature = "serde-snapshot", serde(skip))]
     touched: Vec<RigidBodyHandle>,
     #[cfg_attr(feature = "serde-snapshot", serde(skip))]
-    touched_for: Option<(usize, u64)>,
+    touched_for: Option<u64>,
 }
 
 /// What a step changes in the Rapier backends beyond the bodies: the multibody set (its
@@ -159,9 +159,10 @@ impl RapierBackend {
         Ok(RapierJoint::Multibody(h))
     }
 
-    /// One step of `n` substeps of `h` (the pipeline's `dt` on entry): friction motors set
-    /// from the last reactions, then one Rapier call (impulse) or `n` (multibody).
-    pub(crate) fn step(&mut self, sets: &mut Sets, n: usize) {
+    /// One step of `n` substeps of `h`: friction motors set from the last reactions, then one
+    /// Rapier call (impulse: `dt = n h` with `n` solver iterations) or `n` (multibody: `dt = h`,
+    /// one iteration each).
+    pub(crate) fn step(&mut self, sets: &mut Sets, h: Real, n: usize) {
         if !self.started {
             self.started = true;
             if self.multibody {
@@ -170,7 +171,6 @@ impl RapierBackend {
         }
         friction::set_motors(sets);
         self.refresh_touched(sets);
-        let h = sets.physics.integration_parameters.dt;
         if self.multibody {
             for s in 0..n {
                 if s + 1 == n {
@@ -190,7 +190,7 @@ impl RapierBackend {
     /// The jointed dynamic bodies, rebuilt when joints were added or removed; on the impulse
     /// backend each gets Rapier's own gyroscopic term back (see the module docs).
     fn refresh_touched(&mut self, sets: &mut Sets) {
-        let key = (sets.joints.len(), sets.joints.topology());
+        let key = sets.joints.topology();
         if self.touched_for == Some(key) {
             return;
         }
