@@ -15,6 +15,19 @@ impl core::fmt::Display for JointId {
     }
 }
 
+/// Identifier of a spring-damper in an [`crate::Mpc184World`] (dense index, stable for the
+/// spring's life).
+#[derive(
+    Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize, serde::Deserialize,
+)]
+pub struct SpringId(pub u32);
+
+impl core::fmt::Display for SpringId {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        write!(f, "spring {}", self.0)
+    }
+}
+
 fn at_joint(joint: &Option<JointId>) -> String {
     joint.map_or_else(String::new, |j| format!(" at {j}"))
 }
@@ -103,6 +116,19 @@ pub enum Error {
     /// A joint id that does not exist (removed or never inserted).
     #[error("{0}: no such joint")]
     UnknownJoint(JointId),
+    /// A spring-damper id that does not exist (removed or never inserted).
+    #[error("{0}: no such spring")]
+    UnknownSpring(SpringId),
+    /// A spring-damper's data (`COMBIN14` real constants, points, bodies) is inconsistent.
+    #[error("{spring}: {field}: {reason}")]
+    InvalidSpring {
+        /// The spring.
+        spring: SpringId,
+        /// The offending field (`K`, `CV1`, `CV2`, `ILEN`, `IFORCE`, `nodes`, `body 1`, ...).
+        field: &'static str,
+        /// What is wrong.
+        reason: String,
+    },
     /// A world setting out of range.
     #[error("invalid setting `{field}` = {value}: {reason}")]
     InvalidSetting {

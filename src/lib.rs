@@ -2,7 +2,7 @@
 // The layers, each importing only those above it in this list (see the README's
 // "Architecture" section):
 // 1. plain data and pure functions: math, error, dof, catalogue, behaviour, joint, kinematics,
-//    rows, settings, drive, output; the KKT solver (solver);
+//    rows, settings, drive, output, spring; the KKT solver (solver);
 // 2. body helpers (body), the joint registry (joint_set) and the insertion checks (validate);
 // 3. the joint backends (backend: lower, lagrange, rapier);
 // 4. the static analysis (statics), the divergence guard (divergence), snapshot bytes
@@ -26,6 +26,7 @@ pub mod rows;
 pub mod settings;
 #[cfg(feature = "serde-snapshot")]
 pub mod snapshot;
+pub mod spring;
 pub mod statics;
 pub mod studies;
 pub mod world;
@@ -72,5 +73,6 @@ pub mod prelude {
     pub use crate::settings::{Backend, Integrator, WorldSettings};
     #[cfg(feature = "serde-snapshot")]
     pub use crate::snapshot::Snapshot;
+    pub use crate::spring::{SpringDamper, SpringId, SpringOutput};
     pub use crate::world::{DriveLevel, DriveProfile, Mpc184World};
 }

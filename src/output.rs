@@ -92,7 +92,8 @@ pub struct FrictionState {
 /// energy.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct EnergyLedger {
-    /// Dissipated by dampers, locks and plastic stops (J, >= 0).
+    /// Dissipated by dampers (joint and spring-damper elements), locks and plastic stops (J,
+    /// >= 0).
     pub dissipated: Real,
     /// Work of applied joint loads (FJ) and prescribed motions (DJ) on the system (J).
     pub work: Real,
@@ -105,7 +106,7 @@ pub struct EnergyReport {
     pub kinetic: Real,
     /// Gravitational potential energy (J, zero at the origin).
     pub potential: Real,
-    /// Elastic energy of the joint springs (J).
+    /// Elastic energy of the joint springs and the spring-damper elements (J).
     pub spring: Real,
     /// Dissipated so far (J).
     pub dissipated: Real,

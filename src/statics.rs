@@ -160,6 +160,15 @@ impl StaticState {
     /// caller advances the time and refreshes the joints' outputs, then calls
     /// [`StaticState::finish`].
     pub(crate) fn solve(&mut self, sets: &mut Sets, dt: Real) -> Result<Solution, Error> {
+        if let Some((id, _)) = sets.springs.iter().next() {
+            return Err(Error::Unsupported {
+                what: format!("{id} in a static analysis"),
+                hint: "the static analysis solves the positions of a driven mechanism and takes \
+                       its reactions from the joints' loads; spring-damper elements act in \
+                       transient runs (ANTYPE,TRANS)"
+                    .into(),
+            });
+        }
         let t1 = sets.time + dt;
         let before: Vec<[Real; 6]> = sets
             .joints

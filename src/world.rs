@@ -22,6 +22,7 @@ use crate::math::rapier::pipeline::PhysicsWorld;
 use crate::math::{Real, Vector};
 pub use crate::output::{EnergyReport, JointOutput};
 pub use crate::settings::{Integrator, WorldSettings};
+use crate::spring::{SpringDamper, SpringEntry, SpringId, SpringOutput, SpringSet};
 use crate::statics::{StaticReport, StaticState};
 
 /// Everything of a world but Rapier's physics and the backend's solver state: settings,
@@ -38,6 +39,8 @@ pub(crate) struct Core {
     pub(crate) limits: DivergenceLimits,
     pub(crate) ground: Option<RigidBodyHandle>,
     pub(crate) joints: JointSet,
+    /// The spring-dampers (plain data: their output is computed from the bodies on request).
+    pub(crate) springs: SpringSet,
     pub(crate) progress: Progress,
     /// Measured at the first step after the joints changed.
     pub(crate) model_size: Option<Real>,
@@ -52,6 +55,7 @@ impl Core {
         Sets {
             physics,
             joints: &mut self.joints,
+            springs: &self.springs,
             ledger: &mut self.progress.ledger,
             time: self.progress.time,
             integrator: self.settings.integrator,
@@ -279,12 +283,107 @@ impl Mpc184World {
         self.core.joints.remove_load(id, dof)
     }
 
+    /// Inserts a spring-damper (ANSYS `COMBIN14`) between a point of body 1 (node I) and a
+    /// point of body 2 (node J); `None` is the ground (the point stays where it is). See
+    /// [`crate::spring`] for the force law and how each backend applies it.
+    ///
+    /// # Errors
+    /// [`Error::InvalidSpring`] (non-finite or negative data, coincident points, no such body,
+    /// both sides grounded or one body twice); the world is left unchanged.
+    #[doc(alias = "COMBIN14")]
+    pub fn insert_spring(
+        &mut self,
+        body1: Option<RigidBodyHandle>,
+        body2: Option<RigidBodyHandle>,
+        spring: SpringDamper,
+    ) -> Result<SpringId, Error> {
+        let id = self.core.springs.next_id();
+        spring.validate(id)?;
+        let bad = |field: &'static str, reason: String| Error::InvalidSpring {
+            spring: id,
+            field,
+            reason,
+        };
+        for (field, b) in [("body 1", body1), ("body 2", body2)] {
+            if let Some(b) = b {
+                let Some(rb) = self.physics.bodies.get_mut(b) else {
+                    return Err(bad(field, format!("{b:?} is not in the world")));
+                };
+                rb.recompute_mass_properties_from_colliders(&self.physics.colliders);
+                if let Some(reason) = crate::body::mass_defect(rb) {
+                    return Err(bad(field, reason));
+                }
+            }
+        }
+        if body1 == body2 {
+            return Err(bad(
+                "body 2",
+                "both points are on one body (or both on the ground): the spring would do \
+                 nothing"
+                    .into(),
+            ));
+        }
+        let mut side = |b: Option<RigidBodyHandle>| match b {
+            Some(b) => b,
+            None => crate::backend::shared_ground(&mut self.physics, &mut self.core.ground),
+        };
+        let bodies = [side(body1), side(body2)];
+        let entry = SpringEntry::new(spring, bodies, &self.physics.bodies);
+        self.backend.invalidate();
+        Ok(self.core.springs.push(entry))
+    }
+
+    /// Removes a spring-damper.
+    pub fn remove_spring(&mut self, id: SpringId) -> Result<SpringDamper, Error> {
+        let e = self.core.springs.remove(id)?;
+        self.backend.invalidate();
+        Ok(e.spring)
+    }
+
+    /// A spring-damper's data.
+    pub fn spring(&self, id: SpringId) -> Result<&SpringDamper, Error> {
+        self.core.springs.entry(id).map(|e| &e.spring)
+    }
+
+    /// A spring-damper's length, rate, tension and elastic energy now (from the bodies' current
+    /// states).
+    pub fn spring_output(&self, id: SpringId) -> Result<SpringOutput, Error> {
+        let e = self.core.springs.entry(id)?;
+        Ok(e.eval(self.spring_sides(e)).output)
+    }
+
+    /// Ids of all spring-dampers.
+    pub fn spring_ids(&self) -> impl Iterator<Item = SpringId> + '_ {
+        self.core.springs.iter().map(|(id, _)| id)
+    }
+
+    /// The two sides of a spring now (velocities as [`Mpc184World::body_velocity`] reads them).
+    fn spring_sides(&self, e: &SpringEntry) -> [crate::spring::Side; 2] {
+        e.bodies.map(|h| {
+            let mut s = crate::spring::Side::of(&self.physics.bodies, h);
+            (s.linvel, s.angvel) = self.body_velocity(h);
+            s
+        })
+    }
+
+    /// Elastic energy of the spring-dampers now (J).
+    fn spring_element_energy(&self) -> Real {
+        self.core
+            .springs
+            .iter()
+            .map(|(_, e)| e.eval(self.spring_sides(e)).output.energy)
+            .sum()
+    }
+
     /// Removes a body, every joint attached to it first, and its colliders. Returns the ids of
-    /// the joints removed with it.
+    /// the joints removed with it (its springs go too).
     pub fn remove_body(&mut self, body: RigidBodyHandle) -> Vec<JointId> {
         let attached = self.core.joints.attached_to(body);
         for id in &attached {
             let _ = self.remove_joint(*id);
+        }
+        for id in self.core.springs.attached_to(body) {
+            let _ = self.remove_spring(id);
         }
         self.physics.remove_body_with_colliders(body, true);
         self.backend.invalidate();
@@ -347,7 +446,8 @@ impl Mpc184World {
             .joints
             .iter()
             .map(|e| e.state.output.spring_energy)
-            .sum();
+            .sum::<Real>()
+            + self.spring_element_energy();
         let ledger = self.core.progress.ledger;
         EnergyReport {
             kinetic,

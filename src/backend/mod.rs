@@ -35,6 +35,8 @@ pub use lagrange::LagrangeDiagnostics;
 pub(crate) struct Sets<'a> {
     pub(crate) physics: &'a mut PhysicsWorld,
     pub(crate) joints: &'a mut JointSet,
+    /// The spring-dampers.
+    pub(crate) springs: &'a crate::spring::SpringSet,
     pub(crate) ledger: &'a mut EnergyLedger,
     /// Simulated time at the start of the step (s).
     pub(crate) time: Real,

@@ -58,6 +58,7 @@ mod assemble;
 mod drives;
 pub(crate) mod effects;
 mod projection;
+mod springs;
 mod substep;
 mod topology;
 
@@ -164,6 +165,9 @@ pub struct LagrangeDiagnostics {
     pub first_order_bodies: usize,
     /// Steps so far in which some island fell back to the first-order step (contacts).
     pub first_order_steps: usize,
+    /// Spring-damper kicks in the last step that took the implicit update (the substep could
+    /// not follow the spring or its damper, see [`crate::spring`]).
+    pub implicit_springs: usize,
     /// Warnings issued once (redundant constraints, unconverged projections).
     pub warnings: Vec<String>,
 }
@@ -177,6 +181,7 @@ impl LagrangeDiagnostics {
         stiffened_bodies: 0,
         first_order_bodies: 0,
         first_order_steps: 0,
+        implicit_springs: 0,
         warnings: Vec::new(),
     };
 }
@@ -209,6 +214,7 @@ struct IslandReport {
     projection_iterations: usize,
     stiffened_bodies: usize,
     first_order_bodies: usize,
+    implicit_springs: usize,
     /// Warnings raised in the step (kept once per kind by the backend).
     warnings: Vec<(Warning, String)>,
 }
@@ -233,6 +239,8 @@ pub(crate) struct Island {
     blocks: Vec<usize>,
     /// Every joint of the island, rows or not (springs alone act on it too), ascending.
     members: Vec<usize>,
+    /// The spring-dampers acting on the island's bodies (world spring indices), ascending.
+    springs: Vec<usize>,
     #[cfg_attr(feature = "serde-snapshot", serde(skip))]
     kkt: Option<KktSolver>,
     /// The structure of `kkt` (what a snapshot keeps of it).
@@ -337,6 +345,8 @@ pub(crate) struct LagrangeBackend {
     dirty: bool,
     /// [`crate::joint_set::JointSet::topology`] when the structure was built.
     topology: u64,
+    /// [`crate::spring::SpringSet::topology`] when the structure was built.
+    spring_topology: u64,
     /// Number of colliders when the topology was built (a change rebuilds it).
     colliders: usize,
     /// Per joint, asleep when the topology was built (asleep joints have no rows).
@@ -395,6 +405,7 @@ impl LagrangeBackend {
         d.projection_iterations = 0;
         d.stiffened_bodies = 0;
         d.first_order_bodies = 0;
+        d.implicit_springs = 0;
         for island in &mut self.islands {
             let r = &mut island.report;
             d.redundant_rows += r.redundant_rows;
@@ -402,6 +413,7 @@ impl LagrangeBackend {
             d.projection_iterations = d.projection_iterations.max(r.projection_iterations);
             d.stiffened_bodies += r.stiffened_bodies;
             d.first_order_bodies += r.first_order_bodies;
+            d.implicit_springs += r.implicit_springs;
             for (kind, text) in r.warnings.drain(..) {
                 if !self.warned.contains(&kind) {
                     self.warned.push(kind);
@@ -497,6 +509,7 @@ impl Island {
         self.has_effects = fx.any(sets.joints, &self.members);
         self.has_elastic_stops = fx.has_elastic_stops(sets.joints, &self.members);
         self.plain = !self.has_effects
+            && self.springs.is_empty()
             && !self.members.iter().any(|&j| {
                 sets.joints.get(j).is_some_and(|e| {
                     e.state

@@ -240,6 +240,9 @@ impl Island {
     ) -> Result<SubstepStart, Error> {
         self.ledger = EnergyLedger::default();
         self.kick_momenta(h);
+        if !self.springs.is_empty() {
+            self.spring_kick(sets.springs, &sets.physics.bodies, h, false);
+        }
         let effects = self.has_effects;
         // Energy-consistent stops of the second-order step need the energy the substep starts
         // with (kinetic + potential of constant forces here, springs after the first kick).
@@ -280,6 +283,9 @@ impl Island {
         }
         self.factor(sets.joints, &sets.physics.bodies, h, time)?;
         self.end_momenta(h);
+        if !self.springs.is_empty() {
+            self.spring_kick(sets.springs, &sets.physics.bodies, h, true);
+        }
         if start.effects {
             fx.kick(self, sets, 0.5 * h, t1);
         }

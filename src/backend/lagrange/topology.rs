@@ -9,6 +9,7 @@ use crate::math::rapier::dynamics::{JointAxesMask, RigidBodyHandle, RigidBodySet
 use crate::math::{Pose, Vector};
 use crate::settings::{Backend, Integrator};
 use crate::solver::kkt::{JAC_ROW_STRIDE, JointBlockSpec, KktSolver};
+use crate::spring::SpringSet;
 
 use super::super::{Sets, lower};
 use super::{BodyState, Island, LagrangeBackend, Warning};
@@ -19,6 +20,7 @@ impl LagrangeBackend {
     pub(super) fn needs_rebuild(&self, sets: &Sets) -> bool {
         self.dirty
             || self.topology != sets.joints.topology()
+            || self.spring_topology != sets.springs.topology()
             || asleep(sets.joints, &sets.physics.bodies) != self.asleep
             || self.colliders != sets.physics.colliders.len()
     }
@@ -30,12 +32,12 @@ impl LagrangeBackend {
         let physics = &*sets.physics;
         self.colliders = physics.colliders.len();
         let asleep = asleep(sets.joints, &physics.bodies);
-        let groups = island_members(sets.joints, &physics.bodies, &asleep);
+        let groups = island_members(sets.joints, sets.springs, &physics.bodies, &asleep);
         let old = core::mem::take(&mut self.islands);
         self.block_of = vec![None; sets.joints.len()];
         self.island_of = vec![None; sets.joints.len()];
-        for members in groups {
-            let mut island = Island::build(sets, members)?;
+        for (members, springs) in groups {
+            let mut island = Island::build(sets, members, springs)?;
             // A rebuilt island keeps the report of the last step (its redundancy).
             island.report.redundant_rows = old
                 .iter()
@@ -53,15 +55,43 @@ impl LagrangeBackend {
         self.asleep = asleep;
         self.dirty = false;
         self.topology = sets.joints.topology();
+        self.spring_topology = sets.springs.topology();
         Ok(())
     }
 }
 
-/// The awake joints grouped into islands: joints sharing a dynamic body are in one island
-/// (union-find); each group ascending, the groups by their first joint.
-fn island_members(joints: &JointSet, bodies: &RigidBodySet, asleep: &[bool]) -> Vec<Vec<usize>> {
+/// The awake joints and spring-dampers grouped into islands: elements sharing a dynamic body
+/// are in one island (union-find); each island's joints and springs ascending, the islands by
+/// their first element (joints first). A spring counts as asleep, as a joint does, when every
+/// dynamic body it connects is asleep.
+fn island_members(
+    joints: &JointSet,
+    springs: &SpringSet,
+    bodies: &RigidBodySet,
+    asleep: &[bool],
+) -> Vec<(Vec<usize>, Vec<usize>)> {
     let slots = joints.slots();
-    let mut parent: Vec<usize> = (0..slots.len()).collect();
+    let nj = slots.len();
+    // Elements 0..nj are the joints, nj.. the springs.
+    let sides: Vec<Option<[RigidBodyHandle; 2]>> = slots
+        .iter()
+        .enumerate()
+        .map(|(j, e)| {
+            let e = e.as_ref()?;
+            (!asleep.get(j).copied().unwrap_or(false)).then_some([e.body1, e.body2])
+        })
+        .chain(springs.slots().iter().map(|e| {
+            let e = e.as_ref()?;
+            let dynamic: Vec<_> = e
+                .bodies
+                .iter()
+                .filter(|b| bodies[**b].is_dynamic())
+                .collect();
+            let sleeping = !dynamic.is_empty() && dynamic.iter().all(|b| bodies[**b].is_sleeping());
+            (!sleeping).then_some(e.bodies)
+        }))
+        .collect();
+    let mut parent: Vec<usize> = (0..sides.len()).collect();
     fn root(p: &mut [usize], mut i: usize) -> usize {
         while p[i] != i {
             p[i] = p[p[i]];
@@ -70,42 +100,44 @@ fn island_members(joints: &JointSet, bodies: &RigidBodySet, asleep: &[bool]) -> 
         i
     }
     let mut owner: HashMap<RigidBodyHandle, usize> = HashMap::new();
-    for (j, e) in slots.iter().enumerate() {
-        let Some(e) = e else { continue };
-        if asleep.get(j).copied().unwrap_or(false) {
-            continue;
-        }
-        for b in [e.body1, e.body2] {
-            if !bodies[b].is_dynamic() {
+    for (k, s) in sides.iter().enumerate() {
+        let Some(s) = s else { continue };
+        for b in s {
+            if !bodies[*b].is_dynamic() {
                 continue;
             }
-            match owner.get(&b) {
+            match owner.get(b) {
                 Some(&other) => {
-                    let (ra, rb) = (root(&mut parent, j), root(&mut parent, other));
+                    let (ra, rb) = (root(&mut parent, k), root(&mut parent, other));
                     if ra != rb {
                         parent[ra.max(rb)] = ra.min(rb);
                     }
                 }
                 None => {
-                    owner.insert(b, j);
+                    owner.insert(*b, k);
                 }
             }
         }
     }
-    let mut groups: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
-    for (j, e) in slots.iter().enumerate() {
-        if e.is_none() || asleep.get(j).copied().unwrap_or(false) {
+    let mut groups: BTreeMap<usize, (Vec<usize>, Vec<usize>)> = BTreeMap::new();
+    for (k, s) in sides.iter().enumerate() {
+        if s.is_none() {
             continue;
         }
-        let r = root(&mut parent, j);
-        groups.entry(r).or_default().push(j);
+        let r = root(&mut parent, k);
+        let g = groups.entry(r).or_default();
+        if k < nj {
+            g.0.push(k);
+        } else {
+            g.1.push(k - nj);
+        }
     }
     groups.into_values().collect()
 }
 
 impl Island {
     /// The island of the joints `members` (ascending): its bodies, KKT structure and buffers.
-    fn build(sets: &Sets, members: Vec<usize>) -> Result<Island, Error> {
+    fn build(sets: &Sets, members: Vec<usize>, springs: Vec<usize>) -> Result<Island, Error> {
         let physics = &*sets.physics;
         let mut bodies = Vec::new();
         let mut index = HashMap::new();
@@ -134,6 +166,16 @@ impl Island {
             });
             blocks.push(j);
         }
+        for &k in &springs {
+            for &b in sets.springs.get(k).map(|e| &e.bodies).into_iter().flatten() {
+                if physics.bodies[b].is_dynamic() {
+                    index.entry(b).or_insert_with(|| {
+                        bodies.push(b);
+                        bodies.len() - 1
+                    });
+                }
+            }
+        }
         let has_kinematic = members.iter().filter_map(|&j| sets.joints.get(j)).any(|e| {
             physics.bodies[e.body1].is_kinematic() || physics.bodies[e.body2].is_kinematic()
         });
@@ -143,6 +185,7 @@ impl Island {
         })?;
         let mut island = Island {
             members,
+            springs,
             ..Island::default()
         };
         island.size_buffers(bodies.len(), kkt.num_rows());
