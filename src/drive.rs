@@ -65,6 +65,18 @@ impl DriveProfile {
         self.from + s * (self.to - self.from)
     }
 
+    /// The value just after time `t` (the right limit): [`DriveProfile::value`] except at the
+    /// jump of a stepped profile, where it is already `to`. A force held over a substep that
+    /// starts at the jump is the new value (ANSYS `KBC,1`: the load step's value acts from its
+    /// first substep), so the loads' kick at a substep's start reads this.
+    pub fn value_after(&self, t: Real) -> Real {
+        if self.stepped && t >= self.t0 {
+            self.to
+        } else {
+            self.value(t)
+        }
+    }
+
     pub(crate) fn is_finite(&self) -> bool {
         self.t0.is_finite() && self.t1.is_finite() && self.from.is_finite() && self.to.is_finite()
     }

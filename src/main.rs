@@ -1,7 +1,8 @@
 //! `mpc184`: the command-line program.
 //!
 //! - `mpc184 run DECK`: runs an APDL deck (every load step), prints a summary and writes
-//!   `joints.csv`, `nodes.csv` and `energy.csv`;
+//!   `joints.csv`, `nodes.csv` and `energy.csv` (and `springs.csv` when the deck has COMBIN14
+//!   spring-dampers);
 //! - `mpc184 check DECK`: parses and builds a deck and prints the model;
 //! - `mpc184 pendulum`: the pendulum set on every backend (the former default job);
 //! - `mpc184` alone: runs the embedded default deck, `assets/decks/slider_crank.inp`.
@@ -27,6 +28,8 @@ const DEFAULT_NAME: &str = "slider_crank.inp";
 pub const JOINTS_HEADER: &str = "time,elem,ux,uy,uz,rotx,roty,rotz,velx,vely,velz,omgx,omgy,omgz,fx,fy,fz,mx,my,mz,stop,lock,slip";
 /// The header of `nodes.csv`.
 pub const NODES_HEADER: &str = "time,node,x,y,z,vx,vy,vz";
+/// The header of `springs.csv` (length m, tension N, elastic energy J).
+pub const SPRINGS_HEADER: &str = "time,elem,length,force,energy";
 /// The header of `energy.csv`.
 pub const ENERGY_HEADER: &str = "time,kinetic,potential,spring,dissipated,work,balance";
 
@@ -266,6 +269,21 @@ fn check(path: &Path) -> Result<(), Failure> {
             }
         );
     }
+    if !model.springs.is_empty() {
+        println!("springs (COMBIN14):");
+        for sp in &model.springs {
+            let Ok(d) = model.world.spring(sp.id) else {
+                continue;
+            };
+            let l0 = d
+                .rest_length
+                .map_or_else(|| "initial".to_string(), |l| format!("{l} m"));
+            println!(
+                "  elem {:>4}  k {} N/m  c {} N s/m  free length {l0}  preload {} N  bodies {} -> {}",
+                sp.element, d.stiffness, d.damping, d.preload, sp.bodies[0], sp.bodies[1]
+            );
+        }
+    }
     println!(
         "DOF count (Grubler: 6 per moving body minus constraint equations): {}",
         model.dof_count()
@@ -296,10 +314,11 @@ struct Writers {
     joints: std::io::BufWriter<std::fs::File>,
     nodes: std::io::BufWriter<std::fs::File>,
     energy: std::io::BufWriter<std::fs::File>,
+    springs: Option<std::io::BufWriter<std::fs::File>>,
 }
 
 impl Writers {
-    fn create(dir: &Path) -> std::io::Result<Self> {
+    fn create(dir: &Path, springs: bool) -> std::io::Result<Self> {
         std::fs::create_dir_all(dir)?;
         let open = |name: &str| -> std::io::Result<std::io::BufWriter<std::fs::File>> {
             Ok(std::io::BufWriter::new(std::fs::File::create(
@@ -310,7 +329,15 @@ impl Writers {
             joints: open("joints.csv")?,
             nodes: open("nodes.csv")?,
             energy: open("energy.csv")?,
+            springs: if springs {
+                Some(open("springs.csv")?)
+            } else {
+                None
+            },
         };
+        if let Some(f) = &mut w.springs {
+            writeln!(f, "{SPRINGS_HEADER}")?;
+        }
         writeln!(w.joints, "{JOINTS_HEADER}")?;
         writeln!(w.nodes, "{NODES_HEADER}")?;
         writeln!(w.energy, "{ENERGY_HEADER}")?;
@@ -349,6 +376,18 @@ impl Writers {
                 p.x, p.y, p.z, v.x, v.y, v.z
             )?;
         }
+        if let Some(f) = &mut self.springs {
+            for sp in &m.springs {
+                let Ok(o) = m.world.spring_output(sp.id) else {
+                    continue;
+                };
+                writeln!(
+                    f,
+                    "{t},{},{},{},{}",
+                    sp.element, o.length, o.force, o.energy
+                )?;
+            }
+        }
         let e = m.world.energy();
         writeln!(
             self.energy,
@@ -366,6 +405,9 @@ impl Writers {
     fn flush(&mut self) -> std::io::Result<()> {
         self.joints.flush()?;
         self.nodes.flush()?;
+        if let Some(f) = &mut self.springs {
+            f.flush()?;
+        }
         self.energy.flush()
     }
 }
@@ -390,7 +432,7 @@ fn run(deck: &Deck, args: &RunArgs, out: &Path) -> Result<Summary, Failure> {
             println!("note: {n}");
         }
     }
-    let mut w = Writers::create(out)?;
+    let mut w = Writers::create(out, !model.springs.is_empty())?;
     let total0 = model.world.energy().total;
     w.row(&model, total0)?;
     let total_steps: usize = model.steps.iter().map(|s| s.steps).sum();
@@ -547,8 +589,13 @@ fn print_summary(
     );
     let rate = if wall > 0.0 { steps as f64 / wall } else { 0.0 };
     println!(
-        "{steps} steps in {wall:.3} s wall ({rate:.0} steps/s); wrote {}/{{joints,nodes,energy}}.csv",
-        out.display()
+        "{steps} steps in {wall:.3} s wall ({rate:.0} steps/s); wrote {}/{{joints,nodes,energy{}}}.csv",
+        out.display(),
+        if model.springs.is_empty() {
+            ""
+        } else {
+            ",springs"
+        }
     );
 }
 

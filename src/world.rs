@@ -271,9 +271,10 @@ impl Mpc184World {
 
     /// Applies a force or moment along a free DOF (`FJ,elem,FX..MZ`; N or N m on node J, the
     /// reaction on node I) following `profile` in time. Replaces an earlier load on that DOF.
+    /// On the Rapier backends it is a user force on the bodies held over each Rapier call (the
+    /// generalised force at the call's start: first order in the call).
     #[doc(alias = "FJ")]
     pub fn set_load(&mut self, id: JointId, dof: Dof, profile: DriveProfile) -> Result<(), Error> {
-        self.backend.require(Capability::Load)?;
         self.core.joints.set_load(id, dof, profile)
     }
 
@@ -321,6 +322,14 @@ impl Mpc184World {
                 "both points are on one body (or both on the ground): the spring would do \
                  nothing"
                     .into(),
+            ));
+        }
+        let dynamic =
+            |b: Option<RigidBodyHandle>| b.is_some_and(|b| self.physics.bodies[b].is_dynamic());
+        if !dynamic(body1) && !dynamic(body2) {
+            return Err(bad(
+                "body 2",
+                "neither side is a dynamic body: nothing can move".into(),
             ));
         }
         let mut side = |b: Option<RigidBodyHandle>| match b {

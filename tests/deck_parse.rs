@@ -585,6 +585,7 @@ fn every_shipped_deck_parses() {
     assert_eq!(
         names,
         [
+            "andrews_squeezer",
             "bricard",
             "conical_pendulum",
             "double_pendulum",

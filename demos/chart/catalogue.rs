@@ -137,6 +137,8 @@ pub(crate) enum Scene {
     A04,
     Chain,
     SliderCrank,
+    /// IFToMM A03, Andrews' squeezer: its own sweep (`andrews.rs`), not in [`SCENES`].
+    A03,
 }
 
 pub(crate) const SCENES: [Scene; 6] = [
@@ -161,6 +163,7 @@ impl Scene {
             Scene::A04 => "a04_bricard",
             Scene::Chain => "chain",
             Scene::SliderCrank => "slider_crank",
+            Scene::A03 => "a03_andrews",
         }
     }
 
@@ -178,6 +181,7 @@ impl Scene {
             Scene::SliderCrank => {
                 format!("slider-crank (spherical rod-slider), {d} s, slider vs converged Lagrange")
             }
+            Scene::A03 => "A03 Andrews' squeezer, 0.03 s, angles vs published".into(),
         }
     }
 
@@ -187,6 +191,7 @@ impl Scene {
             Scene::A01 | Scene::Conical | Scene::A02 | Scene::A04 => 1.0,
             Scene::Chain => benchmarks::CHAIN_LINK_LENGTH as f64,
             Scene::SliderCrank => 0.08,
+            Scene::A03 => 0.1,
         }
     }
 
@@ -204,6 +209,10 @@ impl Scene {
             Scene::SliderCrank => {
                 benchmarks::slider_crank_with(settings, RodSliderJoint::Spherical)
             }
+            Scene::A03 => Err(rapier3d_mpc184::Error::Unsupported {
+                what: "A03 as a Benchmark".into(),
+                hint: "it runs from its deck in andrews.rs".into(),
+            }),
         }
     }
 }

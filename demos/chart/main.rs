@@ -32,7 +32,10 @@
 //!   `peer_scaling.csv`, when present in the output directory, add MuJoCo's lines to the
 //!   work-precision, energy and scaling charts and its rows to `summary.md` (see `peers.rs`);
 //! - `summary.md`: per scene the Pareto front, the cheapest run of each method reaching 1e-1 and
-//!   1e-3, and where each method fails.
+//!   1e-3, and where each method fails;
+//! - `wp_a03_andrews.{png,svg}`, `andrews.csv`, `andrews.md` (also alone with `--andrews`):
+//!   IFToMM A03, Andrews' squeezer from its deck, against the published angles at 0.03 s, on
+//!   its own steps (1e-4 s down to 1.25e-6 s; see `andrews.rs`).
 //!
 //! Metrics of a run (one world stepped at `dt` with `substeps`):
 //! - `traj_err`: as IFToMM scores it, the largest deviation of any coordinate of the scene's
@@ -69,6 +72,7 @@ use rapier3d_mpc184::prelude::*;
 use rapier3d_mpc184::studies::benchmarks::{self, Benchmark, Probe, RodSliderJoint};
 use rapier3d_mpc184::studies::scenes::{self, G};
 
+mod andrews;
 mod catalogue;
 mod config;
 mod maps;
@@ -78,6 +82,7 @@ mod plot;
 mod reference;
 mod summary;
 
+use andrews::*;
 use catalogue::*;
 use config::*;
 use maps::*;
@@ -101,6 +106,7 @@ stiffness x dt, four-bar start distance from its singular pose x dt), a cost-aga
 OPTIONS:
     --quick      a short sweep (2 step sizes, 2 substep counts, 1 s scenes, 20-link chain)
     --maps       only the three stability maps (their charts, CSVs and summary sections)
+    --andrews    only IFToMM A03, Andrews' squeezer (wp_a03_andrews, andrews.csv, andrews.md)
     --out DIR    output directory (default docs/charts)
     --help       this text";
 
@@ -114,6 +120,7 @@ const OUTPUT_STEP: f64 = 1.0 / 30.0;
 fn main() -> ExitCode {
     let mut quick = false;
     let mut maps = false;
+    let mut andrews = false;
     let mut out = PathBuf::from("docs/charts");
     let mut args = std::env::args().skip(1);
     while let Some(a) = args.next() {
@@ -124,6 +131,7 @@ fn main() -> ExitCode {
             }
             "--quick" => quick = true,
             "--maps" => maps = true,
+            "--andrews" => andrews = true,
             "--out" => match args.next() {
                 Some(d) => out = PathBuf::from(d),
                 None => return usage("--out needs a value"),
@@ -135,7 +143,12 @@ fn main() -> ExitCode {
         maps_only: maps,
         ..Config::new(quick)
     };
-    match run(&cfg, &out) {
+    let result = if andrews {
+        andrews_only(&cfg, &out)
+    } else {
+        run(&cfg, &out)
+    };
+    match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("chart: {e}");
@@ -195,7 +208,7 @@ fn run(cfg: &Config, out: &Path) -> DynResult<()> {
         total: if cfg.maps_only {
             stab + pen + sing
         } else {
-            SCENES.len() + wp_runs + stab + scal + pen + sing
+            SCENES.len() + wp_runs + stab + scal + pen + sing + andrews_count(cfg)
         },
         done: 0,
         start: Instant::now(),
@@ -216,6 +229,7 @@ fn run(cfg: &Config, out: &Path) -> DynResult<()> {
     let stability = stability_map(cfg, &mut progress);
     let penalty = penalty_map(cfg, &mut progress);
     let singular = singular_map(cfg, &mut progress);
+    let andrews = andrews_study(cfg, out, &mut progress)?;
     let mut scaling = scaling(cfg, &mut progress);
     if !cfg.quick {
         scaling.extend(peer_scaling(out)?);
@@ -237,6 +251,8 @@ fn run(cfg: &Config, out: &Path) -> DynResult<()> {
     Chart::Scaling(&scaling).save(out, "scaling_chain", (900, 600), &mut files)?;
     let mut summary = summary(cfg, &runs, &refs, &stability, &scaling, wall);
     map_summary(&mut summary, cfg, &penalty, &singular);
+    summary.push('\n');
+    summary.push_str(&andrews);
     std::fs::write(out.join("summary.md"), &summary)?;
     files.push("summary.md".into());
     println!("{summary}");
@@ -247,6 +263,20 @@ fn run(cfg: &Config, out: &Path) -> DynResult<()> {
         files.join(" ")
     );
     Ok(())
+}
+
+/// `--andrews`: A03 only.
+fn andrews_only(cfg: &Config, out: &Path) -> DynResult<()> {
+    plotters::style::register_font("sans-serif", FontStyle::Normal, FONT)
+        .map_err(|_| "the bundled font does not load")?;
+    std::fs::create_dir_all(out)?;
+    let mut progress = Progress {
+        total: andrews_count(cfg),
+        done: 0,
+        start: Instant::now(),
+        tty: std::io::stderr().is_terminal(),
+    };
+    andrews_study(cfg, out, &mut progress).map(|_| ())
 }
 
 /// `--maps`: the three stability maps only.

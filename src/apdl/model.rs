@@ -87,6 +87,7 @@ impl Deck {
         let et = self.element_type_of(element)?;
         match et.element {
             ElementName::Mass21 => Some(ElementRole::Mass),
+            ElementName::Combin14 => Some(ElementRole::Spring),
             ElementName::Mpc184 => match et.keyopt(1) {
                 0 => Some(ElementRole::RigidLink),
                 1 => Some(ElementRole::RigidBeam),
@@ -258,6 +259,10 @@ pub enum ElementName {
     /// MASS21 (`ET,n,MASS21` or `ET,n,21`): point mass with optional rotary inertia.
     #[doc(alias = "MASS21")]
     Mass21,
+    /// COMBIN14 (`ET,n,COMBIN14` or `ET,n,14`): longitudinal spring-damper between nodes I and
+    /// J (KEYOPT(2) = 0, KEYOPT(3) = 0 only: 3-D, along the line of the nodes).
+    #[doc(alias = "COMBIN14")]
+    Combin14,
 }
 
 /// What an element is for a builder.
@@ -271,6 +276,9 @@ pub enum ElementRole {
     RigidBeam,
     /// MPC184 KEYOPT(1) = 6..19: a joint (see its section).
     Joint,
+    /// COMBIN14: a spring-damper between nodes I and J (real constants K, CV1, CV2, ILEN,
+    /// IFORCE).
+    Spring,
 }
 
 /// An element type (`ET,itype,name,k1..k6` and `KEYOPT,itype,k,value`).
@@ -305,7 +313,7 @@ impl ElementType {
     pub fn joint_subtype(&self) -> Option<JointSubtype> {
         match self.element {
             ElementName::Mpc184 => JointSubtype::from_keyopt1(self.keyopt(1)),
-            ElementName::Mass21 => None,
+            ElementName::Mass21 | ElementName::Combin14 => None,
         }
     }
 }
@@ -319,7 +327,8 @@ pub struct RealConstants {
     pub id: u32,
     /// The constants in order (`values[0]` = R1). Blank fields are 0.0, as ANSYS reads them;
     /// the list is padded to a multiple of 6. For MASS21 KEYOPT(3) = 0: MASSX MASSY MASSZ (kg)
-    /// IXX IYY IZZ (kg m^2, about the node, global axes); KEYOPT(3) = 2: MASS (kg).
+    /// IXX IYY IZZ (kg m^2, about the node, global axes); KEYOPT(3) = 2: MASS (kg). For
+    /// COMBIN14: K (N/m), CV1 (N s/m), CV2 (N s^2/m^2), two blanks, ILEN (m), IFORCE (N).
     pub values: Vec<f64>,
     /// 1-based line of the `R` command.
     pub line: usize,

@@ -111,7 +111,7 @@ fn is_parameter_name(s: &str) -> bool {
 const GENERIC_HINT: &str = "the deck reader handles the command subset listed in the \
     `rapier3d_mpc184::deck` module docs";
 const ELEMENT_HINT: &str = "rigid multibody only: model links with MPC184 rigid beams \
-    (KEYOPT(1)=1) and MASS21";
+    (KEYOPT(1)=1) and MASS21, springs and dampers with COMBIN14";
 
 #[derive(Default)]
 struct Loads {
@@ -587,6 +587,7 @@ impl Reader {
         let element = match name.as_str() {
             "MPC184" | "184" => ElementName::Mpc184,
             "MASS21" | "21" => ElementName::Mass21,
+            "COMBIN14" | "14" => ElementName::Combin14,
             other => {
                 return Err(self.unsupported(format!("element {other}"), ELEMENT_HINT));
             }
@@ -1581,6 +1582,7 @@ impl Reader {
             )));
         };
         match et.element {
+            ElementName::Combin14 => self.check_spring(e, et)?,
             ElementName::Mass21 => {
                 if e.i.is_none() || e.j.is_some() {
                     return Err(
@@ -1631,6 +1633,60 @@ impl Reader {
                     ));
                 }
             }
+        }
+        Ok(())
+    }
+}
+
+impl Reader {
+    /// A COMBIN14 element: the 3-D longitudinal option, two distinct nodes, a real set.
+    fn check_spring(&self, e: &Element, et: &ElementType) -> Res<()> {
+        let (k2, k3) = (et.keyopt(2), et.keyopt(3));
+        if k2 != 0 {
+            return Err(self.unsupported(
+                format!(
+                    "COMBIN14 element {} with KEYOPT(2) = {k2} (ET,{} line {}): the 1-D option \
+                     along one nodal DOF",
+                    e.id, et.id, et.line
+                ),
+                "use KEYOPT(2) = 0, the longitudinal spring along the line of its nodes; a \
+                 spring on one relative DOF is an MPC184 joint with TB,JOIN STIF",
+            ));
+        }
+        if k3 != 0 {
+            return Err(self.unsupported(
+                format!(
+                    "COMBIN14 element {} with KEYOPT(3) = {k3} (ET,{} line {}): {}",
+                    e.id,
+                    et.id,
+                    et.line,
+                    if k3 == 1 {
+                        "the torsional spring"
+                    } else {
+                        "the 2-D option"
+                    }
+                ),
+                "use KEYOPT(3) = 0 (3-D longitudinal; a planar model is the same in its \
+                 plane); a torsional spring is an MPC184 revolute with TB,JOIN STIF on ROTZ",
+            ));
+        }
+        let (Some(i), Some(j)) = (e.i, e.j) else {
+            return Err(self.invalid(
+                0,
+                format!("COMBIN14 element {} needs both nodes I and J", e.id),
+            ));
+        };
+        if i == j {
+            return Err(self.invalid(
+                0,
+                format!("COMBIN14 element {} joins node {i} to itself", e.id),
+            ));
+        }
+        if !self.deck.real_constants.contains_key(&e.real) {
+            return Err(self.missing(format!(
+                "COMBIN14 element {}: real constant set {} is never defined",
+                e.id, e.real
+            )));
         }
         Ok(())
     }

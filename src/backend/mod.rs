@@ -3,7 +3,7 @@
 //! | [`Backend`] | module | joints are | reactions from | behaviour (stops, locks, springs, drives, loads) |
 //! |---|---|---|---|---|
 //! | `Lagrange` (default) | [`lagrange`] | this crate's rows, solved with Lagrange multipliers (penalty rows for KEYOPT(2) = 1) around one Rapier call per substep | the multipliers | all, exact |
-//! | `RapierImpulse` | [`rapier`] | Rapier impulse joints ([`lower`]) | momentum balance over the last substep | friction on a single-DOF joint (force-capped motor) |
+//! | `RapierImpulse` | [`rapier`] | Rapier impulse joints ([`lower`]) | momentum balance over the last substep | friction on a single-DOF joint (force-capped motor); loads (`FJ`) as user forces per Rapier call |
 //! | `RapierMultibody` | [`rapier`] | Rapier multibody joints (trees) | the same | the same |
 //!
 //! [`JointBackend`] is the only place that matches on [`Backend`]: it admits a joint (what the
@@ -51,8 +51,6 @@ pub(crate) enum Capability {
     Behaviour,
     /// Prescribed relative motion (`DJ`).
     Drive,
-    /// Applied joint loads (`FJ`).
-    Load,
     /// The static position analysis (`ANTYPE,STATIC`).
     Static,
 }
@@ -72,10 +70,6 @@ impl Capability {
             Capability::Drive => (
                 "a prescribed relative motion (DJ)",
                 "drives are rows of the Lagrange backend",
-            ),
-            Capability::Load => (
-                "an applied joint load (FJ)",
-                "joint loads act on the Lagrange backend",
             ),
             Capability::Static => (
                 "a static (position) analysis",

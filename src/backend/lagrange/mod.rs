@@ -241,6 +241,11 @@ pub(crate) struct Island {
     members: Vec<usize>,
     /// The spring-dampers acting on the island's bodies (world spring indices), ascending.
     springs: Vec<usize>,
+    /// Per spring of `springs`: it takes the implicit update in the current substep (decided at
+    /// the substep's start, so both of its kicks agree; not in a snapshot: every substep sets
+    /// it).
+    #[cfg_attr(feature = "serde-snapshot", serde(skip))]
+    spring_implicit: Vec<bool>,
     #[cfg_attr(feature = "serde-snapshot", serde(skip))]
     kkt: Option<KktSolver>,
     /// The structure of `kkt` (what a snapshot keeps of it).

@@ -34,6 +34,7 @@ impl Island {
         h: Real,
         end: bool,
     ) {
+        self.spring_implicit.resize(self.springs.len(), false);
         for n in 0..self.springs.len() {
             let Some(e) = springs.get(self.springs[n]) else {
                 continue;

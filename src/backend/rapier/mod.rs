@@ -21,6 +21,7 @@
 //! sidesteps Rapier's `ImpulseJoint::impulses`, which are coefficients in a Gram-Schmidt-skewed
 //! basis of the last substep only, and works for multibody joints, which write no impulses back.
 
+mod forces;
 pub(crate) mod friction;
 mod reactions;
 
@@ -173,60 +174,22 @@ impl RapierBackend {
         self.refresh_touched(sets);
         if self.multibody {
             for s in 0..n {
-                let held = self.apply_springs(sets, h, 1);
+                let held = self.apply_forces(sets, h, 1, sets.time + s as Real * h);
                 if s + 1 == n {
                     self.record(sets, h);
                 }
                 sets.physics.step();
-                release_springs(sets, held);
+                forces::release(sets, held);
             }
         } else {
             let p = &mut sets.physics.integration_parameters;
             p.dt = h * n as Real;
             p.num_solver_iterations = n;
-            let held = self.apply_springs(sets, h * n as Real, n);
+            let held = self.apply_forces(sets, h * n as Real, n, sets.time);
             self.record(sets, h * n as Real);
             sets.physics.step();
-            release_springs(sets, held);
+            forces::release(sets, held);
         }
-    }
-
-    /// The spring-dampers' forces for a Rapier call of `n` substeps spanning `span` s, added to
-    /// their bodies' user forces for that call: evaluated at the points moved on by
-    /// `(n - 1) / (2 n)` of the span (see [`crate::spring`]: it makes the call's map
-    /// area-preserving); the dampers' work over the span booked as dissipated. Returns the
-    /// bodies' own user forces to put back after the call.
-    fn apply_springs(
-        &self,
-        sets: &mut Sets,
-        span: Real,
-        n: usize,
-    ) -> Vec<(RigidBodyHandle, Vector, Vector)> {
-        let lead = span * (n.max(1) - 1) as Real / (2 * n.max(1)) as Real;
-        let mut held: Vec<(RigidBodyHandle, Vector, Vector)> = Vec::new();
-        for (_, e) in sets.springs.iter() {
-            let sides = e.bodies.map(|b| {
-                let mut s = crate::spring::Side::of(&sets.physics.bodies, b);
-                (s.linvel, s.angvel) = self.velocity(sets.physics, b);
-                s.ahead(lead)
-            });
-            let ev = e.eval(sides);
-            sets.ledger.dissipated += ev.damper * ev.output.rate * span;
-            for k in 0..2 {
-                let b = e.bodies[k];
-                let rb = &mut sets.physics.bodies[b];
-                if !rb.is_dynamic() {
-                    continue;
-                }
-                if !held.iter().any(|(h, _, _)| *h == b) {
-                    held.push((b, rb.user_force(), rb.user_torque()));
-                }
-                let (f, t) = ev.wrench(k, sides[k].com, ev.output.force);
-                rb.add_force(f, true);
-                rb.add_torque(t, true);
-            }
-        }
-        held
     }
 
     /// The jointed dynamic bodies, rebuilt when joints were added or removed; on the impulse
@@ -390,16 +353,5 @@ fn init_multibody_velocities(sets: &mut Sets) {
         }
         dense::cholesky_solve_dropping(&mut a, &mut b, n);
         mb.generalized_velocity_mut().copy_from_slice(&b);
-    }
-}
-
-/// Puts back the bodies' own user forces after a call with the springs' forces on.
-fn release_springs(sets: &mut Sets, held: Vec<(RigidBodyHandle, Vector, Vector)>) {
-    for (b, f, t) in held {
-        let rb = &mut sets.physics.bodies[b];
-        rb.reset_forces(false);
-        rb.reset_torques(false);
-        rb.add_force(f, false);
-        rb.add_torque(t, false);
     }
 }

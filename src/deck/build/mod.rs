@@ -5,6 +5,7 @@
 //! |---|---|
 //! | MPC184 rigid beams (KEYOPT(1) = 1), `CERIG` | nodes tied into one rigid body (union-find) |
 //! | `MASS21` (KEYOPT(3) = 0 or 2) | mass and inertia, summed about the body's centre of mass (parallel axes) |
+//! | `COMBIN14` (KEYOPT(2) = 0, KEYOPT(3) = 0) | a [`crate::spring::SpringDamper`] between the bodies of its nodes (a fixed node: a ground point), real constants in [`springs`] |
 //! | a body without mass | fixed if one of its nodes has `D,node,ALL,0`; otherwise an error naming the node |
 //! | `D,node,ALL,0` (all six labels 0 in every load step) | the node's body is a Rapier fixed body |
 //! | other `D` (a subset of labels, or nonzero values) | a grounded MPC184 general joint at the node, global axes (ground = I, the node's body = J): the labels held at 0 in every load step are its constraints; a label with a nonzero value in some load step is released and driven ([`Mpc184World::set_drive`], relative to time 0: the node's displacement or Bryant rotation), ramped (`KBC,0`) or stepped (`KBC,1`) from the previous load step's value; the set of labels of a node must stay the same in every load step |
@@ -48,7 +49,10 @@ mod constraints;
 mod joints;
 mod load_steps;
 mod rigid_groups;
+mod springs;
 mod velocities;
+
+pub use springs::DeckSpring;
 
 use std::collections::{BTreeMap, BTreeSet};
 
@@ -183,6 +187,8 @@ pub struct DeckModel {
     pub bodies: Vec<DeckBody>,
     /// Joints, by ascending element number.
     pub joints: Vec<DeckJoint>,
+    /// COMBIN14 spring-dampers, by ascending element number.
+    pub springs: Vec<DeckSpring>,
     /// Remarks from the parser and the builder (ignored commands, regularised inertia, friction
     /// not applied, ...), `FILE:LINE: text` where a line is known.
     pub notes: Vec<String>,
@@ -300,6 +306,7 @@ impl DeckModel {
         let joints = joints::insert_joints(deck, &mut world, &bodies, &node_body, &mut notes)?;
         let d_joints =
             constraints.insert_joints(deck, &mut world, &bodies, &node_body, &mut notes)?;
+        let springs = springs::insert_springs(deck, &mut world, &bodies, &node_body, &mut notes)?;
         let static_run = deck
             .load_steps
             .first()
@@ -317,6 +324,7 @@ impl DeckModel {
             world,
             bodies,
             joints,
+            springs,
             notes,
             steps,
             deck: deck.clone(),

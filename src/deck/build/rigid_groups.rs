@@ -82,7 +82,7 @@ impl RigidGroups {
                     uf.union(i, j);
                 }
                 // A pin-ended distance constraint between two bodies: a joint.
-                Some(ElementRole::RigidLink | ElementRole::Joint) | None => {}
+                Some(ElementRole::RigidLink | ElementRole::Joint | ElementRole::Spring) | None => {}
                 Some(ElementRole::Mass) => masses.push(point_mass(deck, e, et)?),
             }
         }
@@ -178,7 +178,8 @@ fn point_mass(deck: &Deck, e: &Element, et: &ElementType) -> Result<PointMass, E
     })
 }
 
-/// The nodes that matter (on joints, loads, initial conditions and partial or nonzero `D`),
+/// The nodes that matter (on joints, springs, loads, initial conditions and partial or nonzero
+/// `D`),
 /// each with the line and command that first uses it: a body of such nodes needs mass.
 pub(super) fn used_nodes(
     deck: &Deck,
@@ -188,7 +189,7 @@ pub(super) fn used_nodes(
     for e in deck.elements.values() {
         if matches!(
             deck.role_of(e),
-            Some(ElementRole::Joint | ElementRole::RigidLink)
+            Some(ElementRole::Joint | ElementRole::RigidLink | ElementRole::Spring)
         ) {
             for n in [e.i, e.j].into_iter().flatten() {
                 used.entry(n).or_insert((e.line, "E"));

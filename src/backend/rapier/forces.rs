@@ -1,0 +1,90 @@
+//! Forces this crate adds around each Rapier call on the Rapier backends: the spring-dampers
+//! ([`crate::spring`]) and the applied joint loads (`FJ`), as user forces on the bodies for the
+//! length of the call, taken off again after it (Rapier keeps user forces between steps).
+//!
+//! - A spring is evaluated at its points moved on by `(n - 1) / (2 n)` of the call at their
+//!   current velocities (`n` Rapier substeps in the call): with a force held over the call, that
+//!   makes a linear spring's step map area-preserving (see [`crate::spring`]).
+//! - A joint load is the generalised force on its DOF, `J^T f` with the DOF's own rows
+//!   ([`crate::behaviour::dof_rows`]) at the call's start, the value just after the call's
+//!   start time (a stepped load acts from its first call). Its work over the call is booked at
+//!   the rates of the call's start: first order in the call, as the force is.
+
+use crate::behaviour::dof_rows;
+use crate::math::rapier::dynamics::RigidBodyHandle;
+use crate::math::{Real, Vector};
+use crate::rows::FramePair;
+use crate::spring::Side;
+
+use super::super::Sets;
+use super::RapierBackend;
+
+/// The bodies' own user force and torque, to put back after the call.
+pub(super) type Held = Vec<(RigidBodyHandle, Vector, Vector)>;
+
+impl RapierBackend {
+    /// Adds the springs' and the joint loads' forces for a call of `n` Rapier substeps spanning
+    /// `span` s from time `t`, books the dampers' and loads' work, and returns what to put back.
+    pub(super) fn apply_forces(&self, sets: &mut Sets, span: Real, n: usize, t: Real) -> Held {
+        let mut held = Held::new();
+        let lead = span * (n.max(1) - 1) as Real / (2 * n.max(1)) as Real;
+        let mut wrenches: Vec<(RigidBodyHandle, Vector, Vector)> = Vec::new();
+        for (_, e) in sets.springs.iter() {
+            let sides = e.bodies.map(|b| {
+                let mut s = Side::of(&sets.physics.bodies, b);
+                (s.linvel, s.angvel) = self.velocity(sets.physics, b);
+                s.ahead(lead)
+            });
+            let ev = e.eval(sides);
+            sets.ledger.dissipated += ev.damper * ev.output.rate * span;
+            for (k, side) in sides.iter().enumerate() {
+                let (f, tq) = ev.wrench(k, side.com, ev.output.force);
+                wrenches.push((e.bodies[k], f, tq));
+            }
+        }
+        for e in sets.joints.iter() {
+            if e.loads.is_empty() {
+                continue;
+            }
+            let side = |b: RigidBodyHandle| crate::body::pose_and_com(&sets.physics.bodies[b]);
+            let f = FramePair::at(&e.low, side(e.body1), side(e.body2));
+            let o = &e.state.output;
+            let (_, rows) = dof_rows(&f, [o.measure[3], o.measure[5]]);
+            let vel = [e.body1, e.body2].map(|b| self.velocity(sets.physics, b));
+            for d in &e.loads {
+                let value = d.profile.value_after(t);
+                let row = &rows[d.dof.index()];
+                let rate = row.j1[0].dot(vel[0].0)
+                    + row.j1[1].dot(vel[0].1)
+                    + row.j2[0].dot(vel[1].0)
+                    + row.j2[1].dot(vel[1].1);
+                sets.ledger.work += value * rate * span;
+                wrenches.push((e.body1, row.j1[0] * value, row.j1[1] * value));
+                wrenches.push((e.body2, row.j2[0] * value, row.j2[1] * value));
+            }
+        }
+        for (b, f, tq) in wrenches {
+            let rb = &mut sets.physics.bodies[b];
+            if !rb.is_dynamic() {
+                continue;
+            }
+            if !held.iter().any(|(h, _, _)| *h == b) {
+                held.push((b, rb.user_force(), rb.user_torque()));
+            }
+            rb.add_force(f, true);
+            rb.add_torque(tq, true);
+        }
+        held
+    }
+}
+
+/// Puts back the bodies' own user forces after a call.
+pub(super) fn release(sets: &mut Sets, held: Held) {
+    for (b, f, t) in held {
+        let rb = &mut sets.physics.bodies[b];
+        rb.reset_forces(false);
+        rb.reset_torques(false);
+        rb.add_force(f, false);
+        rb.add_torque(t, false);
+    }
+}
