@@ -160,7 +160,11 @@ pub struct SpringOutput {
 
 /// A spring in the world: its data, its bodies (ground resolved to a fixed body) and its
 /// points in those bodies' frames.
-#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Debug)]
+#[cfg_attr(
+    feature = "serde-snapshot",
+    derive(serde::Serialize, serde::Deserialize)
+)]
 pub(crate) struct SpringEntry {
     pub(crate) spring: SpringDamper,
     pub(crate) bodies: [RigidBodyHandle; 2],
@@ -286,7 +290,11 @@ impl SpringEntry {
 }
 
 /// The springs of a world, by id (removed ones leave a hole, so ids stay stable).
-#[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Debug, Default)]
+#[cfg_attr(
+    feature = "serde-snapshot",
+    derive(serde::Serialize, serde::Deserialize)
+)]
 pub(crate) struct SpringSet {
     slots: Vec<Option<SpringEntry>>,
     /// Bumped by every insertion and removal (the solvers' structure follows it).

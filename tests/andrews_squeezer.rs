@@ -19,29 +19,7 @@
 
 use rapier3d_mpc184::deck::{BuildOptions, DeckModel, parse_str};
 use rapier3d_mpc184::prelude::*;
-
-/// beta, Theta, gamma, Phi, delta, Omega, epsilon at t = 0.03 s (rad).
-const REFERENCE: [f64; 7] = [
-    15.810_771_196_299_04,
-    -15.756_371_059_842_98,
-    0.040_822_240_130_731_01,
-    -0.534_730_116_322_694_8,
-    0.524_409_965_880_530_4,
-    0.534_730_116_322_694_8,
-    1.048_080_741_042_263,
-];
-/// The consistent initial angles (the deck's BE0..EP0).
-const INITIAL: [f64; 7] = [
-    -0.061_713_890_014_276_45,
-    0.0,
-    0.455_279_819_163_070_4,
-    0.222_668_390_165_885_9,
-    0.487_364_979_543_842_55,
-    -0.222_668_390_165_885_9,
-    1.230_547_444_549_821_2,
-];
-/// The revolute element whose ROTZ is each angle minus its start (the deck's header).
-const ELEMENTS: [u32; 7] = [1, 2, 6, 8, 7, 10, 9];
+use rapier3d_mpc184::studies::andrews as a03;
 
 struct Outcome {
     error: f64,
@@ -51,10 +29,8 @@ struct Outcome {
 }
 
 fn run(dt: f64) -> Outcome {
-    let text = include_str!("../assets/decks/andrews_squeezer.inp");
-    assert!(text.contains("DELTIM,1E-5"));
-    let text = text.replace("DELTIM,1E-5", &format!("DELTIM,{dt:e}"));
-    let deck = parse_str(&text, "andrews_squeezer.inp").unwrap();
+    assert!(a03::DECK.contains(a03::DELTIM));
+    let deck = parse_str(&a03::deck_with_step(dt), "andrews_squeezer.inp").unwrap();
     let options = BuildOptions {
         integrator: Integrator::Rattle,
         ..BuildOptions::default()
@@ -62,21 +38,13 @@ fn run(dt: f64) -> Outcome {
     let mut model = DeckModel::build(&deck, options).unwrap();
     model.begin_load_step(0).unwrap();
     let e0 = model.world.energy().total;
-    let steps = (0.03 / dt).round() as usize;
+    let steps = (a03::END / dt).round() as usize;
     for _ in 0..steps {
         model.step().unwrap();
     }
-    assert!((model.world.time() - 0.03).abs() < 1e-12);
-    let mut error: f64 = 0.0;
-    for k in 0..7 {
-        let j = model
-            .joints
-            .iter()
-            .find(|j| j.element == ELEMENTS[k])
-            .unwrap();
-        let rotz = model.world.output(j.id).unwrap().rotation.z;
-        error = error.max((rotz + INITIAL[k] - REFERENCE[k]).abs());
-    }
+    assert!((model.world.time() - a03::END).abs() < 1e-12);
+    let error = a03::angle_error(&model);
+    assert!(error.is_finite());
     let e = model.world.energy();
     Outcome {
         error,
@@ -101,7 +69,7 @@ fn angles_at_0_03_s_match_the_published_solution_at_second_order() {
     // The moment's work is 0.033 N m x 15.87 rad = 0.5238 J by 0.03 s. The ledger books it
     // from the half kicks' rates (trapezoid rule per substep, O(h^2): measured 2.2e-4 of it
     // low at 5e-5 s, where the crank spins up to ~10^3 rad/s), so 1e-3 relative.
-    let exact_work = 0.033 * (REFERENCE[0] - INITIAL[0]);
+    let exact_work = a03::MOMENT * (a03::REFERENCE[0] - a03::INITIAL[0]);
     assert!(
         (fine.work - exact_work).abs() < 1e-3 * exact_work,
         "work {} J against {exact_work} J",

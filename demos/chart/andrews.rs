@@ -9,36 +9,7 @@ use rapier3d_mpc184::deck::{BuildOptions, DeckModel, parse_str};
 
 use super::*;
 
-/// The deck, as shipped.
-const DECK: &str = include_str!("../../assets/decks/andrews_squeezer.inp");
-
-/// The published angles at t = 0.03 s: beta, Theta, gamma, Phi, delta, Omega, epsilon (rad).
-pub(crate) const REFERENCE: [f64; 7] = [
-    15.810_771_196_299_04,
-    -15.756_371_059_842_98,
-    0.040_822_240_130_731_01,
-    -0.534_730_116_322_694_8,
-    0.524_409_965_880_530_4,
-    0.534_730_116_322_694_8,
-    1.048_080_741_042_263,
-];
-
-/// The initial angles (the deck's BE0 .. EP0).
-pub(crate) const INITIAL: [f64; 7] = [
-    -0.061_713_890_014_276_45,
-    0.0,
-    0.455_279_819_163_070_4,
-    0.222_668_390_165_885_9,
-    0.487_364_979_543_842_55,
-    -0.222_668_390_165_885_9,
-    1.230_547_444_549_821_2,
-];
-
-/// The joint element whose ROTZ is each angle minus its initial value (the deck's header).
-pub(crate) const ELEMENTS: [u32; 7] = [1, 2, 6, 8, 7, 10, 9];
-
-/// Simulated time (s).
-pub(crate) const END: f64 = 0.03;
+use rapier3d_mpc184::studies::andrews::{self as a03, END};
 
 /// The steps of the sweep (s).
 fn steps(cfg: &Config) -> Vec<f64> {
@@ -52,7 +23,7 @@ fn steps(cfg: &Config) -> Vec<f64> {
 /// The deck text for `method` (penalty: KEYOPT(2) = 1 and `SECJOINT,PNLT` at `-k`, absolute).
 fn deck_text(method: Method) -> String {
     match method {
-        Method::Penalty(k) => DECK
+        Method::Penalty(k) => a03::DECK
             .replace("ET,1,MPC184,6,,,1", "ET,1,MPC184,6,1,,1")
             .replace(
                 "SECJOINT,LSYS,0                ! the global axes at node I",
@@ -61,7 +32,7 @@ fn deck_text(method: Method) -> String {
                     -k, -k
                 ),
             ),
-        _ => DECK.to_string(),
+        _ => a03::DECK.to_string(),
     }
 }
 
@@ -79,7 +50,7 @@ fn run_one(method: Method, dt: f64, substeps: usize) -> Run {
         gap: f64::NAN,
         status: "ok".into(),
     };
-    let text = deck_text(method).replace("DELTIM,1E-5", &format!("DELTIM,{dt:e}"));
+    let text = deck_text(method).replace(a03::DELTIM, &format!("DELTIM,{dt:e}"));
     let deck = match parse_str(&text, "andrews_squeezer.inp") {
         Ok(d) => d,
         Err(e) => {
@@ -119,7 +90,7 @@ fn run_one(method: Method, dt: f64, substeps: usize) -> Run {
     let busy = started.elapsed().as_secs_f64();
     run.cpu = busy / model.world.time().max(1e-12) as f64;
     if run.ok() {
-        run.traj = angle_error(&model);
+        run.traj = a03::angle_error(&model);
         let e = model.world.energy();
         run.energy = ((e.total - e0) / e.work.max(1e-12)).abs() as f64;
         run.gap = model
@@ -133,21 +104,6 @@ fn run_one(method: Method, dt: f64, substeps: usize) -> Run {
         }
     }
     run
-}
-
-/// The largest error of the seven angles against [`REFERENCE`] (rad).
-pub(crate) fn angle_error(model: &DeckModel) -> f64 {
-    let mut worst: f64 = 0.0;
-    for k in 0..7 {
-        let Some(j) = model.joints.iter().find(|j| j.element == ELEMENTS[k]) else {
-            return f64::NAN;
-        };
-        let Ok(o) = model.world.output(j.id) else {
-            return f64::NAN;
-        };
-        worst = worst.max((o.rotation.z as f64 + INITIAL[k] - REFERENCE[k]).abs());
-    }
-    worst
 }
 
 /// The first clause of an error message (the charts' status column stays short).
