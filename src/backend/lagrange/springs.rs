@@ -40,18 +40,7 @@ impl Island {
                 continue;
             };
             let slots = e.bodies.map(|b| self.index.get(&b).copied());
-            let sides: [Side; 2] = core::array::from_fn(|k| match slots[k] {
-                Some(i) => {
-                    let s = &self.st[i];
-                    Side {
-                        pose: s.pose,
-                        com: s.com,
-                        linvel: s.linvel,
-                        angvel: s.angvel,
-                    }
-                }
-                None => Side::of(bodies, e.bodies[k]),
-            });
+            let sides = self.sides(e, bodies);
             let ev = e.eval(sides);
             let m_line = self.line_mass(&ev, slots, &sides);
             let c = e.spring.damping + e.spring.damping_quadratic * ev.output.rate.abs();
@@ -91,6 +80,31 @@ impl Island {
             let damper = if stiff { c * ev.output.rate } else { ev.damper };
             self.ledger.dissipated += damper * ev.output.rate * h * booked;
         }
+    }
+
+    /// Elastic energy of the island's spring-dampers at the solver's current states (J).
+    pub(super) fn spring_element_energy(&self, springs: &SpringSet, bodies: &RigidBodySet) -> Real {
+        self.springs
+            .iter()
+            .filter_map(|&k| springs.get(k))
+            .map(|e| e.eval(self.sides(e, bodies)).output.energy)
+            .sum()
+    }
+
+    /// A spring's two sides: the solver's states for the island's bodies, Rapier's otherwise.
+    fn sides(&self, e: &SpringEntry, bodies: &RigidBodySet) -> [Side; 2] {
+        core::array::from_fn(|k| match self.index.get(&e.bodies[k]) {
+            Some(&i) => {
+                let s = &self.st[i];
+                Side {
+                    pose: s.pose,
+                    com: s.com,
+                    linvel: s.linvel,
+                    angvel: s.angvel,
+                }
+            }
+            None => Side::of(bodies, e.bodies[k]),
+        })
     }
 
     /// The free effective mass of a spring's two points along its line (kg; infinite when

@@ -252,7 +252,8 @@ impl Island {
             fx.begin_substep(&self.members);
             fx.kick(self, sets, 0.5 * h, t1 - h);
             if let Some(e) = &mut energy {
-                *e += fx.spring_energy(&self.members);
+                *e += fx.spring_energy(&self.members)
+                    + self.spring_element_energy(sets.springs, &sets.physics.bodies);
             }
         }
         self.solve_velocity(sets.time)?;

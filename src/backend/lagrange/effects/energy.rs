@@ -12,7 +12,8 @@ use super::{Effects, frames, responses, row_rate};
 impl Effects {
     /// The energy-consistent impact of the second-order step (the velocity update of Laursen
     /// and Love, 2002): after a substep in which a stop reflected, the post-impact rate along
-    /// that stop is set so that kinetic + potential + spring energy at the substep's end equals
+    /// that stop is set so that kinetic + potential + spring energy (joint springs and spring-damper
+    /// elements) at the substep's end equals
     /// the energy it started with plus the work booked in it (loads, drives) minus what was
     /// dissipated (dampers, friction, plastic landings). The impulse acts along the stop's row
     /// through the constrained system (the joints' velocity constraints hold and the momentum
@@ -49,7 +50,8 @@ impl Effects {
         let Some((dv, dmu)) = responses.first() else {
             return Ok(());
         };
-        let now = ls.body_energy() + self.spring_energy(&ls.members);
+        let elements = ls.spring_element_energy(sets.springs, &sets.physics.bodies);
+        let now = ls.body_energy() + self.spring_energy(&ls.members) + elements;
         let expected = start + ls.ledger.work - ls.ledger.dissipated;
         // Kinetic energy along the response: KE(v + p u) = KE(v) + a1 p + a2 p^2, with the
         // bodies' true inertia.
@@ -93,7 +95,8 @@ impl Effects {
         for (r, m) in dmu.iter().enumerate() {
             ls.impulse[r] -= p * m;
         }
-        let after = ls.body_energy() + self.spring_energy(&ls.members);
+        // The velocity change moves no body: the spring elements' energy is unchanged by it.
+        let after = ls.body_energy() + self.spring_energy(&ls.members) + elements;
         // What could not be kept (clamped cases only; round-off otherwise).
         ls.ledger.dissipated += expected - after;
         let (f2, t2) = &mut self.scratch[j].on_body2;
