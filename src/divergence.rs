@@ -25,7 +25,24 @@
 //!   `|e_a . f_b - target|` of its angular rows, about the sine of the angle error) is at most
 //!   `angular_gap` (default 0.5, about 30 degrees);
 //! - no joint turns by more than `turn_per_step` (default pi, half a turn) in one step: its
-//!   relative angular velocity ([`JointOutput::angular_velocity`](crate::output::JointOutput::angular_velocity)) times the step `dt`.
+//!   relative angular velocity ([`JointOutput::angular_velocity`](crate::output::JointOutput::angular_velocity)) times the step `dt`;
+//! - the energy guard: the step creates at most `energy_growth` (default 0.25) of the energy
+//!   scale that the ledger does not explain: the balance `kinetic + potential + spring +
+//!   dissipated - work` ([`EnergyReport::total`]) may not grow by more than that in one step.
+//!   The scale is the largest `kinetic + spring + |work| + dissipated` seen so far, the state
+//!   after the step included, plus the range of gravitational energy seen, and at least what
+//!   the loads could do over the model size (every body's weight and every joint load times
+//!   the model size, at least 1 m or 1 rad) and at least [`GUARD_FLOOR`] (1 uJ):
+//!   a step that multiplies the energy by `r` creates `(r - 1) / r` of the scale after it, so
+//!   the guard trips for any growth faster than 1.33 per step. Every source of work is booked
+//!   (joint loads and drives, springs and dampers, user forces and torques, gravity changed
+//!   with `Mpc184World::set_gravity`, kinematic bodies through their joints; not yet the
+//!   contacts, whose impulses dissipate, and velocities or gravity changed between steps, which
+//!   the guard does not see), so a working step moves the balance by its integration error
+//!   only: 1e-4 to 1e-3 of the scale per step on the benchmark scenes. An explicit spring past
+//!   its stability limit gains a factor `(omega h)^2` of its energy per substep and trips the
+//!   guard in the first step that does so; the joint named is one on the body with the largest
+//!   kinetic energy after the step.
 //!
 //! A working Lagrange joint holds its rows to the projection tolerance (1e-10); a penalty joint
 //! deflects by its load over its stiffness (10 um for 1 kN at the default 1e8 N/m); Rapier's
@@ -55,7 +72,7 @@ use crate::joint_set::{JointSet, JointState};
 use crate::math::rapier::dynamics::RigidBodyHandle;
 use crate::math::rapier::pipeline::PhysicsWorld;
 use crate::math::{Pose, Real, Vector};
-use crate::output::{EnergyLedger, JointOutput};
+use crate::output::{EnergyLedger, EnergyReport, JointOutput};
 
 /// Bounds past which a step counts as diverged (see the module docs).
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -69,6 +86,10 @@ pub struct DivergenceLimits {
     /// Largest relative rotation of a joint in one step, its relative angular velocity times
     /// `dt` (rad; default pi).
     pub turn_per_step: Real,
+    /// Largest energy one step may create beyond what the ledger books (loads, drives, user
+    /// forces, gravity changes, kinematic bodies), as a fraction of the run's energy scale
+    /// (default 0.25; see the module docs).
+    pub energy_growth: Real,
 }
 
 impl Default for DivergenceLimits {
@@ -77,6 +98,7 @@ impl Default for DivergenceLimits {
             gap_fraction: 0.1,
             angular_gap: 0.5,
             turn_per_step: crate::math::PI,
+            energy_growth: 0.25,
         }
     }
 }
@@ -89,6 +111,7 @@ impl DivergenceLimits {
             ("gap_fraction", self.gap_fraction),
             ("angular_gap", self.angular_gap),
             ("turn_per_step", self.turn_per_step),
+            ("energy_growth", self.energy_growth),
         ] {
             if value.is_nan() || value <= 0.0 {
                 return Err(Error::InvalidSetting {
@@ -115,6 +138,78 @@ pub(crate) struct Progress {
     pub(crate) last_h: Real,
     /// Energy dissipated and work done so far.
     pub(crate) ledger: EnergyLedger,
+    /// The energy guard's scale so far (J): the largest `kinetic + spring + |work| +
+    /// dissipated` seen, plus the range of the gravitational energy seen.
+    pub(crate) energy_scale: Real,
+    pub(crate) potential_range: Option<(Real, Real)>,
+}
+
+impl Progress {
+    /// Takes an energy report into the guard's scale and returns the scale (J; see
+    /// [`check_energy`]; `floor` is the scale the loads give a world at rest).
+    pub(crate) fn scale_with(&mut self, e: &EnergyReport, floor: Real) -> Real {
+        let own = e.kinetic + e.spring.abs() + e.work.abs() + e.dissipated.abs();
+        if own.is_finite() {
+            self.energy_scale = self.energy_scale.max(own);
+        }
+        if e.potential.is_finite() {
+            let (lo, hi) = self.potential_range.unwrap_or((e.potential, e.potential));
+            self.potential_range = Some((lo.min(e.potential), hi.max(e.potential)));
+        }
+        let range = self.potential_range.map_or(0.0, |(lo, hi)| hi - lo);
+        (self.energy_scale + range).max(floor).max(GUARD_FLOOR)
+    }
+}
+
+/// The smallest energy scale of the guard (J): a world at rest with nothing to move has no
+/// scale of its own, and its round-off must not trip the guard.
+pub const GUARD_FLOOR: Real = 1e-6;
+
+/// The energy the loads could put into a world at rest (J): every dynamic body's weight over
+/// the model size, and every joint load (N or N m) over the model size or 1 rad.
+pub(crate) fn load_scale(
+    bodies: &crate::math::rapier::dynamics::RigidBodySet,
+    joints: &JointSet,
+    gravity: Vector,
+    size: Real,
+    time: Real,
+) -> Real {
+    let weight: Real = bodies
+        .iter()
+        .filter(|(_, rb)| rb.is_dynamic())
+        .map(|(_, rb)| rb.mass() * rb.gravity_scale().abs() * gravity.length())
+        .sum();
+    let loads: Real = joints
+        .iter()
+        .flat_map(|e| e.loads.iter())
+        .map(|d| d.profile.value_after(time).abs())
+        .sum();
+    (weight + loads) * size.max(1.0)
+}
+
+/// The energy guard: a step whose balance (`EnergyReport::total`) grew by more than
+/// `energy_growth` of the scale `scale` (J, with the states before and after the step: an
+/// unstable step that multiplies the energy by `r` creates `(r - 1) / r` of the scale after it,
+/// so the guard trips for any growth faster than 1 / (1 - 0.25) = 1.33 per step) created energy
+/// that nothing booked: a blow-up even while everything stays finite (an explicit spring past its stability
+/// limit gains a factor `(omega h)^2` of its energy per substep).
+pub(crate) fn check_energy(
+    limits: &DivergenceLimits,
+    before: &EnergyReport,
+    after: &EnergyReport,
+    scale: Real,
+) -> Result<(), String> {
+    let growth = after.total - before.total;
+    let bound = limits.energy_growth * scale;
+    if growth.is_nan() || growth > bound {
+        return Err(format!(
+            "the step created {growth:.3e} J that no load, drive, force or spring booked, past \
+             the energy guard's bound {bound:.3e} J ({} of the energy scale {scale:.3e} J): an \
+             unstable step (for example an explicit spring too stiff for it)",
+            limits.energy_growth
+        ));
+    }
+    Ok(())
 }
 
 /// The limits in absolute terms for one check.

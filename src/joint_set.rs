@@ -566,6 +566,18 @@ impl JointEntry {
     }
 }
 
+impl JointEntry {
+    /// The reaction of the output in world terms: the force on node J, the moment about it
+    /// (world frame) and node J's position, at the bodies' poses now.
+    pub(crate) fn reaction_world(&self, bodies: &RigidBodySet) -> (Vector, Vector, Vector) {
+        let pose1 = bodies[self.body1].position();
+        let node_j = *bodies[self.body2].position() * self.ansys[1].translation;
+        let axes_i = Matrix::from_quat(pose1.rotation * self.ansys[0].rotation);
+        let o = &self.state.output;
+        (axes_i * o.force, axes_i * o.moment, node_j)
+    }
+}
+
 /// A joint's frames in its bodies' local coordinates (see [`JointEntry`]).
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct JointFrames {

@@ -3,7 +3,8 @@
 // "Architecture" section):
 // 1. plain data and pure functions: math, error, dof, catalogue, behaviour, joint, kinematics,
 //    rows, settings, drive, output, spring; the KKT solver (solver);
-// 2. body helpers (body), the joint registry (joint_set) and the insertion checks (validate);
+// 2. body helpers (body), the joint registry (joint_set), the insertion checks (validate) and
+//    the work no backend books (work);
 // 3. the joint backends (backend: lower, lagrange, rapier);
 // 4. the static analysis (statics), the divergence guard (divergence), snapshot bytes
 //    (snapshot);
@@ -37,6 +38,7 @@ pub(crate) mod body;
 pub(crate) mod joint_set;
 pub(crate) mod solver;
 pub(crate) mod validate;
+pub(crate) mod work;
 
 pub use backend::lower;
 pub use divergence::DivergenceLimits;

@@ -7,8 +7,12 @@
 //! - `mpc184 pendulum`: the pendulum set on every backend (the former default job);
 //! - `mpc184` alone: runs the embedded default deck, `assets/decks/slider_crank.inp`.
 //!
-//! Exit codes: 0 success, 2 a deck error (`FILE:LINE: COMMAND: what`), 3 the simulation
-//! diverged (the CSV files hold every row up to the last good step).
+//! Exit codes: 0 success; 2 a deck error (`FILE:LINE: COMMAND: what`); 3 the simulation
+//! diverged (the CSV files hold every row up to the last good step); 4 a file could not be
+//! created or written (the message names the operation and the path, and the time up to which
+//! the CSV files hold whole rows); 130 / 143 interrupted by SIGINT / SIGTERM (the step under
+//! way finishes, every CSV gets the rows of that time, the summary names it; a second signal
+//! exits at once, the rows already written whole).
 
 use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
@@ -16,6 +20,14 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 use clap::{Parser, Subcommand, ValueEnum};
+
+#[path = "cli/interrupt.rs"]
+mod interrupt;
+#[path = "cli/output.rs"]
+mod output;
+
+use interrupt::Interrupt;
+use output::{IoFailure, Writers};
 use rapier3d_mpc184::deck::{BuildOptions, Deck, DeckModel, parse_file, parse_str};
 use rapier3d_mpc184::prelude::*;
 use rapier3d_mpc184::studies::metrics::pendulum_study;
@@ -24,15 +36,6 @@ use rapier3d_mpc184::studies::metrics::pendulum_study;
 const DEFAULT_DECK: &str = include_str!("../assets/decks/slider_crank.inp");
 const DEFAULT_NAME: &str = "slider_crank.inp";
 
-/// The header of `joints.csv`.
-pub const JOINTS_HEADER: &str = "time,elem,ux,uy,uz,rotx,roty,rotz,velx,vely,velz,omgx,omgy,omgz,fx,fy,fz,mx,my,mz,stop,lock,slip";
-/// The header of `nodes.csv`.
-pub const NODES_HEADER: &str = "time,node,x,y,z,vx,vy,vz";
-/// The header of `springs.csv` (length m, tension N, elastic energy J).
-pub const SPRINGS_HEADER: &str = "time,elem,length,force,energy";
-/// The header of `energy.csv`.
-pub const ENERGY_HEADER: &str = "time,kinetic,potential,spring,dissipated,work,balance";
-
 #[derive(Parser)]
 #[command(
     name = "mpc184",
@@ -40,7 +43,9 @@ pub const ENERGY_HEADER: &str = "time,kinetic,potential,spring,dissipated,work,b
     about = "ANSYS MPC184 joints on Rapier: run APDL decks of rigid multibody models",
     long_about = "ANSYS MPC184 joints on Rapier: run APDL decks of rigid multibody models.\n\n\
                   With no command, runs the embedded default deck (assets/decks/slider_crank.inp) \
-                  into out/slider_crank.\n\nExit codes: 0 success, 2 deck error, 3 diverged."
+                  into out/slider_crank.\n\nExit codes: 0 success, 2 deck error, 3 diverged, 4 file error \
+                  (path named), 130/143 interrupted by SIGINT/SIGTERM (whole rows up to the \
+                  time printed)."
 )]
 struct Cli {
     #[command(subcommand)]
@@ -124,8 +129,10 @@ enum Failure {
     Deck(String),
     /// The simulation diverged (exit 3).
     Diverged(String),
-    /// Anything else (file system; exit 1).
-    Other(String),
+    /// A file could not be created or written (exit 4).
+    Io(String),
+    /// Stopped by a signal (exit 130 for SIGINT, 143 for SIGTERM).
+    Interrupted(String, u8),
 }
 
 impl Failure {
@@ -133,16 +140,17 @@ impl Failure {
         let (msg, code) = match self {
             Failure::Deck(m) => (m, 2),
             Failure::Diverged(m) => (m, 3),
-            Failure::Other(m) => (m, 1),
+            Failure::Io(m) => (m, 4),
+            Failure::Interrupted(m, code) => (m, code),
         };
         eprintln!("mpc184: {msg}");
         ExitCode::from(code)
     }
 }
 
-impl From<std::io::Error> for Failure {
-    fn from(e: std::io::Error) -> Self {
-        Failure::Other(e.to_string())
+impl From<IoFailure> for Failure {
+    fn from(e: IoFailure) -> Self {
+        Failure::Io(e.to_string())
     }
 }
 
@@ -310,108 +318,6 @@ fn method_name(m: ConstraintMethod) -> &'static str {
     }
 }
 
-struct Writers {
-    joints: std::io::BufWriter<std::fs::File>,
-    nodes: std::io::BufWriter<std::fs::File>,
-    energy: std::io::BufWriter<std::fs::File>,
-    springs: Option<std::io::BufWriter<std::fs::File>>,
-}
-
-impl Writers {
-    fn create(dir: &Path, springs: bool) -> std::io::Result<Self> {
-        std::fs::create_dir_all(dir)?;
-        let open = |name: &str| -> std::io::Result<std::io::BufWriter<std::fs::File>> {
-            Ok(std::io::BufWriter::new(std::fs::File::create(
-                dir.join(name),
-            )?))
-        };
-        let mut w = Writers {
-            joints: open("joints.csv")?,
-            nodes: open("nodes.csv")?,
-            energy: open("energy.csv")?,
-            springs: if springs {
-                Some(open("springs.csv")?)
-            } else {
-                None
-            },
-        };
-        if let Some(f) = &mut w.springs {
-            writeln!(f, "{SPRINGS_HEADER}")?;
-        }
-        writeln!(w.joints, "{JOINTS_HEADER}")?;
-        writeln!(w.nodes, "{NODES_HEADER}")?;
-        writeln!(w.energy, "{ENERGY_HEADER}")?;
-        Ok(w)
-    }
-
-    fn row(&mut self, m: &DeckModel, total0: Real) -> std::io::Result<()> {
-        let t = m.world.time();
-        for j in &m.joints {
-            let Ok(o) = m.world.output(j.id) else {
-                continue;
-            };
-            let v = [
-                o.displacement,
-                o.rotation,
-                o.velocity,
-                o.angular_velocity,
-                o.force,
-                o.moment,
-            ];
-            write!(self.joints, "{t},{}", j.element)?;
-            for x in v {
-                write!(self.joints, ",{},{},{}", x.x, x.y, x.z)?;
-            }
-            // Slip: 1 sliding, 0 sticking, empty without friction.
-            let slip = o
-                .friction
-                .map_or(String::new(), |f| u8::from(f.slipping).to_string());
-            writeln!(self.joints, ",{},{},{slip}", o.stops, o.locks)?;
-        }
-        for n in m.node_ids() {
-            let (p, v) = m.node_state(n);
-            writeln!(
-                self.nodes,
-                "{t},{n},{},{},{},{},{},{}",
-                p.x, p.y, p.z, v.x, v.y, v.z
-            )?;
-        }
-        if let Some(f) = &mut self.springs {
-            for sp in &m.springs {
-                let Ok(o) = m.world.spring_output(sp.id) else {
-                    continue;
-                };
-                writeln!(
-                    f,
-                    "{t},{},{},{},{}",
-                    sp.element, o.length, o.force, o.energy
-                )?;
-            }
-        }
-        let e = m.world.energy();
-        writeln!(
-            self.energy,
-            "{t},{},{},{},{},{},{}",
-            e.kinetic,
-            e.potential,
-            e.spring,
-            e.dissipated,
-            e.work,
-            e.total - total0
-        )?;
-        Ok(())
-    }
-
-    fn flush(&mut self) -> std::io::Result<()> {
-        self.joints.flush()?;
-        self.nodes.flush()?;
-        if let Some(f) = &mut self.springs {
-            f.flush()?;
-        }
-        self.energy.flush()
-    }
-}
-
 fn run(deck: &Deck, args: &RunArgs, out: &Path) -> Result<Summary, Failure> {
     let mut model = build(
         deck,
@@ -421,8 +327,7 @@ fn run(deck: &Deck, args: &RunArgs, out: &Path) -> Result<Summary, Failure> {
             integrator: args.integrator.into(),
         },
     )?;
-    let quiet = args.quiet;
-    if !quiet {
+    if !args.quiet {
         println!(
             "{}: {}",
             model.file,
@@ -432,89 +337,155 @@ fn run(deck: &Deck, args: &RunArgs, out: &Path) -> Result<Summary, Failure> {
             println!("note: {n}");
         }
     }
+    let interrupt = Interrupt::install()
+        .map_err(|e| Failure::Io(format!("installing the SIGINT/SIGTERM handlers: {e}")))?;
     let mut w = Writers::create(out, !model.springs.is_empty())?;
     let total0 = model.world.energy().total;
     w.row(&model, total0)?;
+    let started = Instant::now();
+    let mut state = RunState {
+        summary: Summary {
+            min_crank: 0.0,
+            max_slider_x: f64::NEG_INFINITY,
+            balance: 0.0,
+        },
+        done: 0,
+        written: 0,
+    };
+    let ended = step_all(&mut model, args, &mut w, total0, &interrupt, &mut state);
+    let progress = !args.quiet && std::io::stdout().is_terminal();
+    if progress {
+        println!();
+    }
+    let wall = started.elapsed().as_secs_f64();
+    let e = model.world.energy();
+    state.summary.balance = (e.total - total0) as f64;
+    match ended {
+        Ok(()) => {
+            if !args.quiet {
+                print_summary(&model, &e, total0, wall, state.done, out);
+            }
+            Ok(state.summary)
+        }
+        Err(Stop::Failed(f)) => Err(f),
+        Err(Stop::Interrupted(name, code)) => {
+            if !args.quiet {
+                print_summary(&model, &e, total0, wall, state.done, out);
+            }
+            let t = model.world.time();
+            Err(Failure::Interrupted(
+                format!(
+                    "interrupted by {name} at t = {t} s; {} hold whole rows up to t = {t} s",
+                    out.join("*.csv").display()
+                ),
+                code,
+            ))
+        }
+    }
+}
+
+/// What the step loop keeps: the default job's figures, the steps done and the steps done when
+/// the last row was written (t = 0: none).
+struct RunState {
+    summary: Summary,
+    done: usize,
+    written: usize,
+}
+
+/// Why the step loop stopped early.
+enum Stop {
+    Failed(Failure),
+    /// A signal (name, exit status): the rows of the last step are written.
+    Interrupted(&'static str, u8),
+}
+
+impl From<IoFailure> for Stop {
+    fn from(e: IoFailure) -> Self {
+        Stop::Failed(e.into())
+    }
+}
+
+/// Every load step's steps, a row every `--every` steps (and at the last step, at a divergence
+/// and at an interrupt: the world's last good state gets its row even if `--every` thinned it
+/// out).
+fn step_all(
+    model: &mut DeckModel,
+    args: &RunArgs,
+    w: &mut Writers,
+    total0: Real,
+    interrupt: &Interrupt,
+    st: &mut RunState,
+) -> Result<(), Stop> {
     let total_steps: usize = model.steps.iter().map(|s| s.steps).sum();
-    let progress = !quiet && std::io::stdout().is_terminal();
+    let progress = !args.quiet && std::io::stdout().is_terminal();
     let every = args.every as usize;
     let crank = model.joints.first().map(|j| j.id);
-    let mut summary = Summary {
-        min_crank: 0.0,
-        max_slider_x: f64::NEG_INFINITY,
-        balance: 0.0,
-    };
-    let started = Instant::now();
-    let mut done = 0usize;
-    // Steps done when the last row was written (t = 0: none).
-    let mut written = 0usize;
     for k in 0..model.steps.len() {
-        model.begin_load_step(k).map_err(deck_failure)?;
+        model
+            .begin_load_step(k)
+            .map_err(|e| Stop::Failed(deck_failure(e)))?;
         for _ in 0..model.steps[k].steps {
             if let Err(e) = model.step() {
-                // The world kept its last good state: like the last step of a run, it gets its
-                // row even if --every thinned it out, then every file is flushed.
-                if written != done {
-                    w.row(&model, total0)?;
+                if st.written != st.done {
+                    w.row(model, total0)?;
                 }
-                w.flush()?;
-                if progress {
-                    println!();
-                }
-                return Err(match e {
-                    Error::Diverged {
-                        time,
-                        joint,
-                        reason,
-                    } => {
-                        let at = joint
-                            .and_then(|id| model.joints.iter().find(|j| j.id == id))
-                            .map_or_else(String::new, |j| {
-                                format!(" at joint element {} ({})", j.element, j.kind.name())
-                            });
-                        Failure::Diverged(format!(
-                            "diverged in the step from t = {time} s (load step {}){at}: {reason}; \
-                             {} hold every output row up to t = {time} s",
-                            model.steps[k].number,
-                            out.join("*.csv").display()
-                        ))
-                    }
-                    other => deck_failure(other),
-                });
+                return Err(Stop::Failed(diverged(model, k, e, w)));
             }
-            done += 1;
-            if done.is_multiple_of(every) || done == total_steps {
-                w.row(&model, total0)?;
-                written = done;
+            st.done += 1;
+            if st.done.is_multiple_of(every) || st.done == total_steps {
+                w.row(model, total0)?;
+                st.written = st.done;
+            }
+            if let Some((name, code)) = interrupt.caught() {
+                if st.written != st.done {
+                    w.row(model, total0)?;
+                }
+                return Err(Stop::Interrupted(name, code));
             }
             if let Some(c) = crank
                 && let Ok(o) = model.world.output(c)
             {
-                summary.min_crank = summary.min_crank.min(o.rotation.z as f64);
+                st.summary.min_crank = st.summary.min_crank.min(o.rotation.z as f64);
             }
             if let Some((p, _)) = model.node_ids().last().map(|n| model.node_state(n)) {
-                summary.max_slider_x = summary.max_slider_x.max(p.x as f64);
+                st.summary.max_slider_x = st.summary.max_slider_x.max(p.x as f64);
             }
-            if progress && (done.is_multiple_of(50) || done == total_steps) {
+            if progress && (st.done.is_multiple_of(50) || st.done == total_steps) {
                 print!(
-                    "\r  step {done}/{total_steps}  t = {:.4} s",
+                    "\r  step {}/{total_steps}  t = {:.4} s",
+                    st.done,
                     model.world.time()
                 );
                 let _ = std::io::stdout().flush();
             }
         }
     }
-    w.flush()?;
-    if progress {
-        println!();
+    Ok(())
+}
+
+/// The failure of a step in load step `k`: a divergence names the joint element and the time
+/// of the rows kept.
+fn diverged(model: &DeckModel, k: usize, e: Error, w: &Writers) -> Failure {
+    match e {
+        Error::Diverged {
+            time,
+            joint,
+            reason,
+        } => {
+            let at = joint
+                .and_then(|id| model.joints.iter().find(|j| j.id == id))
+                .map_or_else(String::new, |j| {
+                    format!(" at joint element {} ({})", j.element, j.kind.name())
+                });
+            let kept = w.last_time().map_or(time as f64, |t| t);
+            Failure::Diverged(format!(
+                "diverged in the step from t = {time} s (load step {}){at}: {reason}; the CSV \
+                 files hold every output row up to t = {kept} s",
+                model.steps[k].number,
+            ))
+        }
+        other => deck_failure(other),
     }
-    let wall = started.elapsed().as_secs_f64();
-    let e = model.world.energy();
-    summary.balance = (e.total - total0) as f64;
-    if !quiet {
-        print_summary(&model, &e, total0, wall, done, out);
-    }
-    Ok(summary)
 }
 
 fn print_summary(

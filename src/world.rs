@@ -518,10 +518,88 @@ impl Mpc184World {
             });
         }
         self.save_checkpoint();
-        match self.step_unchecked(dt, n) {
+        let guard = self.core.limits.energy_growth.is_finite();
+        let before = guard.then(|| {
+            let e = self.energy();
+            let floor = self.load_scale();
+            self.core.progress.scale_with(&e, floor);
+            (e, floor)
+        });
+        let result = self.step_unchecked(dt, n).and_then(|()| match before {
+            Some((e, floor)) => self.energy_guard(&e, floor),
+            None => Ok(()),
+        });
+        match result {
             Ok(()) => Ok(()),
             Err(e) => Err(self.roll_back(e)),
         }
+    }
+
+    /// The energy guard after a step (see [`crate::divergence`]): the balance may not have
+    /// grown by more than `energy_growth` of the scale (taken with the state after the step
+    /// too, so that a step from rest is measured against what it set in motion); the joint
+    /// blamed is one on the body with the largest kinetic energy now.
+    fn energy_guard(&mut self, before: &EnergyReport, floor: Real) -> Result<(), Error> {
+        let after = self.energy();
+        let scale = self.core.progress.scale_with(&after, floor);
+        crate::divergence::check_energy(&self.core.limits, before, &after, scale).map_err(
+            |reason| {
+                let hottest = self
+                    .physics
+                    .bodies
+                    .iter()
+                    .filter(|(_, rb)| rb.is_dynamic())
+                    .map(|(h, rb)| {
+                        let (v, w) = self.body_velocity(h);
+                        let ke = rb.mass() * v.length_squared()
+                            + w.dot(crate::body::world_inertia(rb) * w);
+                        (h, ke)
+                    })
+                    .max_by(|a, b| a.1.total_cmp(&b.1))
+                    .map(|(h, _)| h);
+                let joint = hottest.and_then(|h| self.core.joints.attached_to(h).first().copied());
+                let body = hottest.map_or_else(String::new, |h| {
+                    format!(" (fastest body {:?})", h.into_raw_parts())
+                });
+                Error::Diverged {
+                    time: self.time(),
+                    joint,
+                    reason: format!("{reason}{body}"),
+                }
+            },
+        )
+    }
+
+    /// What the loads could put into the world at rest (J; the energy guard's floor).
+    fn load_scale(&self) -> Real {
+        crate::divergence::load_scale(
+            &self.physics.bodies,
+            &self.core.joints,
+            self.physics.gravity,
+            self.model_size(),
+            self.time(),
+        )
+    }
+
+    /// Sets the gravity (m/s^2) and books the work of the change: the gravitational energy
+    /// `-m g . c` of every dynamic body jumps with `g` at fixed positions, and that jump is work
+    /// done on the system (ANSYS `ACEL` varying in time, ramped by `KBC,0`). Writing
+    /// `physics.gravity` directly changes the gravity without booking it (the balance then
+    /// moves by the jump).
+    #[doc(alias = "ACEL")]
+    pub fn set_gravity(&mut self, gravity: Vector) {
+        let dg = gravity - self.physics.gravity;
+        if dg != Vector::ZERO {
+            let jump: Real = self
+                .physics
+                .bodies
+                .iter()
+                .filter(|(_, rb)| rb.is_dynamic())
+                .map(|(_, rb)| -rb.mass() * rb.gravity_scale() * dg.dot(rb.center_of_mass()))
+                .sum();
+            self.core.progress.ledger.work += jump;
+        }
+        self.physics.gravity = gravity;
     }
 
     /// [`Mpc184World::step`] without the checkpoint: the backend's substeps, the reactions,
@@ -529,6 +607,7 @@ impl Mpc184World {
     fn step_unchecked(&mut self, dt: Real, n: usize) -> Result<(), Error> {
         let h = dt / n as Real;
         self.core.progress.last_h = h;
+        let start = crate::work::StepStart::record(&self.physics.bodies);
         self.backend
             .step(&mut self.core.sets(&mut self.physics), h, n)?;
         self.core.progress.time += dt;
@@ -536,6 +615,7 @@ impl Mpc184World {
         self.backend
             .write_reactions(&mut self.core.sets(&mut self.physics), h);
         self.refresh_outputs();
+        self.core.progress.ledger.work += start.work(&self.physics.bodies, &self.core.joints, dt);
         self.bounds().check(&self.core.joints, self.time())
     }
 

@@ -250,7 +250,7 @@ impl Island {
         let mut energy = energy_fix.then(|| self.body_energy());
         if effects {
             fx.begin_substep(&self.members);
-            fx.kick(self, sets, 0.5 * h, t1 - h);
+            fx.kick(self, sets, 0.5 * h, t1 - h, false);
             if let Some(e) = &mut energy {
                 *e += fx.spring_energy(&self.members)
                     + self.spring_element_energy(sets.springs, &sets.physics.bodies);
@@ -288,7 +288,7 @@ impl Island {
             self.spring_kick(sets.springs, &sets.physics.bodies, h, true);
         }
         if start.effects {
-            fx.kick(self, sets, 0.5 * h, t1);
+            fx.kick(self, sets, 0.5 * h, t1, true);
         }
         self.project_velocities(time)?;
         self.book_drive_work(sets.joints);

@@ -232,7 +232,7 @@ impl DeckModel {
             self.gravity[1].value(t),
             self.gravity[2].value(t),
         );
-        self.world.physics.gravity = g;
+        self.world.set_gravity(g);
         for b in &self.forced_bodies {
             let rb = &mut self.world.physics.bodies[self.bodies[*b].handle];
             rb.reset_forces(false);

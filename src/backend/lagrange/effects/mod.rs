@@ -64,6 +64,10 @@ pub(crate) struct JointScratch {
     pub(crate) on_body2: (Vector, Vector),
     /// Spring energy at the last evaluation (J).
     spring_energy: Real,
+    /// The loads and the DOFs' measures at the current substep's start (the loads' work is
+    /// booked at its end from them).
+    load_start: [Real; 6],
+    measure_start: [Real; 6],
     /// Stops that reflected elastically in the current substep (DOF, side: +1 lower, -1 upper).
     bounced: Vec<(crate::dof::Dof, Real)>,
 }
