@@ -307,6 +307,14 @@ pub(crate) struct Island {
     /// step's start (not in a snapshot: the next step sets it).
     #[cfg_attr(feature = "serde-snapshot", serde(skip))]
     plain: bool,
+    /// Some body of the island has a collider (contacts can act on it): each substep notes the
+    /// island's energy at its start ([`Island::book_contacts`]). Set at each step's start.
+    #[cfg_attr(feature = "serde-snapshot", serde(skip))]
+    watch_contacts: bool,
+    /// The island's energy at the current substep's start, while a contact may act (not in a
+    /// snapshot: set and taken within a substep).
+    #[cfg_attr(feature = "serde-snapshot", serde(skip))]
+    contact_energy: Option<Real>,
     /// Work done and energy dissipated in the island during the current substep, added to the
     /// world's ledger when the substep ends.
     ledger: EnergyLedger,
@@ -523,6 +531,10 @@ impl Island {
                         .any(|r| matches!(r, RowKind::Screw { .. } | RowKind::Drive { .. }))
                 })
             });
+        self.watch_contacts = self
+            .bodies
+            .iter()
+            .any(|b| !sets.physics.bodies[*b].colliders().is_empty());
         self.gather(&sets.physics.bodies, sets.physics.gravity);
         if rebuilt || !self.factor_holds(h) {
             self.rows(sets.joints, &sets.physics.bodies, h, true);

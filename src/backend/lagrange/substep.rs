@@ -256,6 +256,7 @@ impl Island {
                     + self.spring_element_energy(sets.springs, &sets.physics.bodies);
             }
         }
+        self.contact_energy = self.watch_contacts.then(|| self.island_energy(fx, sets));
         self.solve_velocity(sets.time)?;
         if effects {
             fx.limits_velocity(self, sets, h)?;
@@ -292,6 +293,7 @@ impl Island {
         }
         self.project_velocities(time)?;
         self.book_drive_work(sets.joints);
+        self.book_contacts(fx, sets);
         if let Some(energy) = start.energy {
             fx.energy_fix(self, sets, h, energy)?;
         }
@@ -391,6 +393,33 @@ impl Island {
                 };
             }
         }
+    }
+
+    /// The island's mechanical energy now: kinetic, the potential of the constant forces
+    /// (gravity, user forces), the joint springs at their last evaluation and the spring
+    /// elements (J).
+    fn island_energy(&self, fx: &Effects, sets: &Sets) -> Real {
+        self.body_energy()
+            + fx.spring_energy(&self.members)
+            + self.spring_element_energy(sets.springs, &sets.physics.bodies)
+    }
+
+    /// The contacts' work in a substep where one acted (a contact pair of an island body has an
+    /// active contact after Rapier's call): the island's energy change over the
+    /// substep less what the substep booked (loads, drives, dampers, friction, locks). Rapier
+    /// does not expose its contact impulses in a form whose work can be taken exactly (anchors
+    /// frozen between narrow-phase updates, twist and warm-start shares), so the contact
+    /// substep's residual is booked as the contact's work: it holds the integrator's own error
+    /// of that substep too; elsewhere the balance measures the integrator alone.
+    fn book_contacts(&mut self, fx: &Effects, sets: &Sets) {
+        let Some(e0) = self.contact_energy.take() else {
+            return;
+        };
+        if self.bodies_in_contact(sets).is_empty() {
+            return;
+        }
+        let e1 = self.island_energy(fx, sets);
+        self.ledger.work += e1 - e0 - (self.ledger.work - self.ledger.dissipated);
     }
 
     /// Stage 4, first half: the momenta at `q_(n+1)` into `rhs_b`, with RATTLE's second half
