@@ -103,8 +103,8 @@ fn state(b: &Benchmark) -> ([Real; 2], [Real; 2]) {
     let d = p2 - p1;
     let th = [p1.x.atan2(-p1.y), d.x.atan2(-d.y)];
     let w = [
-        b.world.body_velocity(b.bodies[0]).1.z,
-        b.world.body_velocity(b.bodies[1]).1.z,
+        b.world.body_velocity(b.bodies[0]).unwrap().1.z,
+        b.world.body_velocity(b.bodies[1]).unwrap().1.z,
     ];
     (th, w)
 }

@@ -287,7 +287,9 @@ pub fn write_body_states(sim: Res<Mpc184Sim>, mut q: Query<(&BodyHandle, &mut Bo
         let Some(rb) = sim.world.physics.bodies.get(h.0) else {
             continue;
         };
-        let (linvel, angvel) = sim.world.body_velocity(h.0);
+        let Ok((linvel, angvel)) = sim.world.body_velocity(h.0) else {
+            continue;
+        };
         let pose = rb.position();
         *state = BodyState {
             translation: pose.translation,

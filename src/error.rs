@@ -116,6 +116,9 @@ pub enum Error {
     /// A joint id that does not exist (removed or never inserted).
     #[error("{0}: no such joint")]
     UnknownJoint(JointId),
+    /// A body handle that is not in the world (never was, or removed).
+    #[error("body {0:?}: no such body")]
+    UnknownBody(crate::math::rapier::dynamics::RigidBodyHandle),
     /// A spring-damper id that does not exist (removed or never inserted).
     #[error("{0}: no such spring")]
     UnknownSpring(SpringId),

@@ -129,6 +129,12 @@ impl SpringDamper {
             return Err(bad("IFORCE", format!("{} is not finite", self.preload)));
         }
         let length = (self.point2 - self.point1).length();
+        if !length.is_finite() {
+            return Err(bad(
+                "nodes",
+                "points I and J are too far apart for their distance to be finite".into(),
+            ));
+        }
         if length <= MIN_LENGTH {
             return Err(bad(
                 "nodes",

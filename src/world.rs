@@ -370,7 +370,7 @@ impl Mpc184World {
     fn spring_sides(&self, e: &SpringEntry) -> [crate::spring::Side; 2] {
         e.bodies.map(|h| {
             let mut s = crate::spring::Side::of(&self.physics.bodies, h);
-            (s.linvel, s.angvel) = self.body_velocity(h);
+            (s.linvel, s.angvel) = self.velocity_of(h);
             s
         })
     }
@@ -394,6 +394,10 @@ impl Mpc184World {
         for id in self.core.springs.attached_to(body) {
             let _ = self.remove_spring(id);
         }
+        // The shared ground goes with it: the next grounded joint or spring makes a new one.
+        if self.core.ground == Some(body) {
+            self.core.ground = None;
+        }
         self.physics.remove_body_with_colliders(body, true);
         self.backend.invalidate();
         attached
@@ -416,7 +420,18 @@ impl Mpc184World {
 
     /// Linear and angular velocity of a body's centre of mass (world frame). Multibody links are
     /// read through the multibody Jacobian: their `RigidBody` velocities lag one substep.
-    pub fn body_velocity(&self, h: RigidBodyHandle) -> (Vector, Vector) {
+    ///
+    /// # Errors
+    /// [`Error::UnknownBody`] for a handle that is not in the world (never was, or removed).
+    pub fn body_velocity(&self, h: RigidBodyHandle) -> Result<(Vector, Vector), Error> {
+        if self.physics.bodies.get(h).is_none() {
+            return Err(Error::UnknownBody(h));
+        }
+        Ok(self.velocity_of(h))
+    }
+
+    /// [`Mpc184World::body_velocity`] of a body known to be in the world.
+    fn velocity_of(&self, h: RigidBodyHandle) -> (Vector, Vector) {
         self.backend.body_velocity(&self.physics, h)
     }
 
@@ -427,7 +442,7 @@ impl Mpc184World {
             if !rb.is_dynamic() {
                 continue;
             }
-            let (v, w) = self.body_velocity(h);
+            let (v, w) = self.velocity_of(h);
             e += 0.5 * rb.mass() * v.length_squared()
                 + 0.5 * w.dot(crate::body::world_inertia(rb) * w);
         }
@@ -517,6 +532,14 @@ impl Mpc184World {
                 reason: "dt must be positive and substeps at least 1",
             });
         }
+        let g = self.physics.gravity;
+        if !g.is_finite() {
+            return Err(Error::InvalidSetting {
+                field: "physics.gravity",
+                value: g.x + g.y + g.z,
+                reason: "the gravity must be finite",
+            });
+        }
         self.save_checkpoint();
         let guard = self.core.limits.energy_growth.is_finite();
         let before = guard.then(|| {
@@ -550,7 +573,7 @@ impl Mpc184World {
                     .iter()
                     .filter(|(_, rb)| rb.is_dynamic())
                     .map(|(h, rb)| {
-                        let (v, w) = self.body_velocity(h);
+                        let (v, w) = self.velocity_of(h);
                         let ke = rb.mass() * v.length_squared()
                             + w.dot(crate::body::world_inertia(rb) * w);
                         (h, ke)
@@ -586,8 +609,18 @@ impl Mpc184World {
     /// done on the system (ANSYS `ACEL` varying in time, ramped by `KBC,0`). Writing
     /// `physics.gravity` directly changes the gravity without booking it (the balance then
     /// moves by the jump).
+    ///
+    /// # Errors
+    /// [`Error::InvalidSetting`] for a non-finite gravity (the world is left unchanged).
     #[doc(alias = "ACEL")]
-    pub fn set_gravity(&mut self, gravity: Vector) {
+    pub fn set_gravity(&mut self, gravity: Vector) -> Result<(), Error> {
+        if !gravity.is_finite() {
+            return Err(Error::InvalidSetting {
+                field: "gravity",
+                value: gravity.x + gravity.y + gravity.z,
+                reason: "the gravity must be finite",
+            });
+        }
         let dg = gravity - self.physics.gravity;
         if dg != Vector::ZERO {
             let jump: Real = self
@@ -600,6 +633,7 @@ impl Mpc184World {
             self.core.progress.ledger.work += jump;
         }
         self.physics.gravity = gravity;
+        Ok(())
     }
 
     /// [`Mpc184World::step`] without the checkpoint: the backend's substeps, the reactions,

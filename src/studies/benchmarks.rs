@@ -90,7 +90,10 @@ impl Benchmark {
     pub fn probe_velocity(&self) -> Vector {
         let rb = &self.world.physics.bodies[self.probe.body];
         let x = *rb.position() * self.probe.local;
-        let (v, w) = self.world.body_velocity(self.probe.body);
+        let (v, w) = self
+            .world
+            .body_velocity(self.probe.body)
+            .unwrap_or_default();
         v + w.cross(x - rb.center_of_mass())
     }
 

@@ -24,6 +24,20 @@ impl LagrangeBackend {
         let mut starts = Vec::with_capacity(self.islands.len());
         for island in &mut self.islands {
             starts.push(island.before_drift(&mut self.fx, sets, h, t1)?);
+            // Rapier's pipeline is not made for non-finite velocities (it can panic on them):
+            // a blow-up stops here, as a divergence.
+            if let Some(i) =
+                (0..island.bodies.len()).find(|&i| island.rhs_b[i].iter().any(|x| !x.is_finite()))
+            {
+                return Err(Error::Diverged {
+                    time: sets.time,
+                    joint: None,
+                    reason: format!(
+                        "body {:?}: non-finite velocity from the constraint solve",
+                        island.bodies[i].into_raw_parts()
+                    ),
+                });
+            }
             island.hand_to_rapier(sets.physics, h);
         }
         sets.physics.step();

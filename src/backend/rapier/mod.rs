@@ -125,6 +125,33 @@ impl RapierBackend {
                     .into(),
             });
         }
+        // A body is the child of one multibody joint only (Rapier's trees; its bookkeeping
+        // breaks, and panics on removal, if a second parent is inserted).
+        if let Some(b) = sides[1]
+            && physics
+                .multibody_joints
+                .rigid_body_link(b)
+                .is_some_and(|l| l.id != 0)
+        {
+            return Err(Error::InvalidBody {
+                joint: id,
+                which: 2,
+                reason: "body 2 (node J) already has a parent joint in its multibody tree: a \
+                         multibody joint links a parent (body 1) to a child (body 2) that has \
+                         no parent yet; use the impulse backend for loops"
+                    .into(),
+            });
+        }
+        // The child link of a multibody joint must be dynamic (Rapier asserts it at the step).
+        if sides[1].is_none_or(|b| physics.bodies.get(b).is_none_or(|rb| !rb.is_dynamic())) {
+            return Err(Error::InvalidBody {
+                joint: id,
+                which: 2,
+                reason: "on the multibody backend body 2 (node J) is the child link of the \
+                         tree and must be dynamic: give the fixed or grounded side as body 1"
+                    .into(),
+            });
+        }
         Ok(sides.map(|b| b.unwrap_or_else(|| physics.bodies.insert(RigidBodyBuilder::fixed()))))
     }
 

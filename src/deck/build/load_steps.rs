@@ -232,7 +232,8 @@ impl DeckModel {
             self.gravity[1].value(t),
             self.gravity[2].value(t),
         );
-        self.world.set_gravity(g);
+        // A deck's ACEL is finite (the parser refuses non-finite numbers).
+        let _ = self.world.set_gravity(g);
         for b in &self.forced_bodies {
             let rb = &mut self.world.physics.bodies[self.bodies[*b].handle];
             rb.reset_forces(false);

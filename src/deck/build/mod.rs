@@ -385,7 +385,8 @@ impl DeckModel {
         if self.bodies[b].fixed {
             return (pos, Vector::ZERO);
         }
-        let (v, w) = self.world.body_velocity(h);
+        // The model's own body: always in the world.
+        let (v, w) = self.world.body_velocity(h).unwrap_or_default();
         (pos, v + w.cross(pos - rb.center_of_mass()))
     }
 
