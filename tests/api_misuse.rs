@@ -188,10 +188,10 @@ fn apply(world: &mut Mpc184World, bodies: &[RigidBodyHandle], c: &Call) {
         }
         Call::RemoveJoint(j) => drop(world.remove_joint(JointId(*j))),
         Call::SetDrive(j, d, v) => {
-            drop(world.set_drive(JointId(*j), dof(*d), DriveProfile::constant(*v)))
+            drop(world.set_drive(JointId(*j), dof(*d), DriveProfile::constant(*v)));
         }
         Call::SetLoad(j, d, v) => {
-            drop(world.set_load(JointId(*j), dof(*d), DriveProfile::constant(*v)))
+            drop(world.set_load(JointId(*j), dof(*d), DriveProfile::constant(*v)));
         }
         Call::RemoveDrive(j, d) => drop(world.remove_drive(JointId(*j), dof(*d))),
         Call::RemoveLoad(j, d) => drop(world.remove_load(JointId(*j), dof(*d))),
@@ -238,7 +238,7 @@ proptest! {
         let (mut w, bodies) = world(backend);
         for c in &calls {
             let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-                apply(&mut w, &bodies, c)
+                apply(&mut w, &bodies, c);
             }));
             prop_assert!(r.is_ok(), "panicked on {c:?} after {calls:?}");
         }
