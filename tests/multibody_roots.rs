@@ -1,8 +1,9 @@
 //! On the Rapier multibody backend every grounded joint gets its own fixed root, so that
 //! independent grounded trees are independent multibodies (one shared ground body made them one
 //! multibody with a dense solve over all their DOFs: 200 five-body arms took seconds per step);
-//! a loop through the ground is still refused, in either joint order. Structure only: no
-//! tolerance (multibody membership is exact).
+//! a loop through the ground is still refused, and a joint grounded at node J (whose fixed side
+//! would be the child link, which Rapier cannot step) is refused before a loop can form.
+//! Structure only: no tolerance (multibody membership is exact).
 
 use rapier3d_mpc184::math::rapier::prelude::{MassProperties, RigidBodyBuilder, RigidBodyHandle};
 use rapier3d_mpc184::prelude::*;
@@ -66,9 +67,14 @@ fn a_loop_through_the_ground_is_refused_in_either_order() {
         let pin = |x| Mpc184Joint::revolute(Axis::Z, Vector::new(x, 0.0, 0.0));
         // Ground - a, a - b, b - ground (J grounded): a loop closed by the ground.
         let r = if j_grounded_first {
-            w.insert_joint(Some(b), None, pin(1.0)).unwrap();
-            w.insert_joint(Some(a), Some(b), pin(0.5)).unwrap();
-            w.insert_joint(None, Some(a), pin(0.0))
+            // A joint grounded at J would make a fixed body the child link, which Rapier
+            // cannot step (it asserts at the first step): refused before any loop forms.
+            let r = w.insert_joint(Some(b), None, pin(1.0));
+            assert!(
+                matches!(r, Err(Error::InvalidBody { which: 2, .. })),
+                "a fixed child: {r:?}"
+            );
+            continue;
         } else {
             w.insert_joint(None, Some(a), pin(0.0)).unwrap();
             w.insert_joint(Some(a), Some(b), pin(0.5)).unwrap();
