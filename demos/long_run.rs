@@ -15,7 +15,9 @@
 //! (now, mean and largest magnitude over the interval, relative to the energy scale: the
 //! largest kinetic energy seen plus the chain's potential-energy range `m g L`), the joint
 //! states, the RSS and the speed. The last line, `RESULT ...`, is machine-readable (the ignored
-//! test `tests/long_run.rs` runs this demo and reads it).
+//! test `tests/long_run.rs` runs this demo and reads it). SIGINT or SIGTERM stops it after the
+//! step under way with a last report, the `RESULT` line and "interrupted by ... at t = ..."
+//! (exit 130 / 143).
 
 #[path = "common/mod.rs"]
 mod common;
@@ -154,18 +156,27 @@ fn run(o: Opts) -> RunResult {
         "substeps/s"
     );
     let mut status = Ok(());
+    let interrupt = common::Interrupt::install();
+    let mut stopped = None;
     for s in 1..=steps {
         if let Err(e) = world.step() {
             status = Err(e);
             break;
         }
         let b = stats.observe(&world, &joints)?;
-        if s % every == 0 || s == steps {
+        stopped = interrupt.caught(world.time());
+        if s % every == 0 || s == steps || stopped.is_some() {
             stats.report(&world, &joints, s * o.substeps, b)?;
+        }
+        if stopped.is_some() {
+            break;
         }
     }
     let done = (world.time() / o.dt).round() as usize * o.substeps;
     stats.finish(done, started.elapsed().as_secs_f64(), &status);
+    if let Some(i) = stopped {
+        return Err(i.into());
+    }
     status.map_err(Into::into)
 }
 

@@ -1,6 +1,7 @@
 //! Shared helpers of the headless demos: `--key value` argument parsing with std only, the
-//! backend list, CSV files, energy-drift windows and the exit-code convention (0 ok, 1 the run
-//! failed, 2 bad command line: the error and the help are printed).
+//! backend list, CSV files, energy-drift windows, SIGINT/SIGTERM for the long runs and the
+//! exit-code convention (0 ok, 1 the run failed, 2 bad command line: the error and the help
+//! are printed; 130 / 143 interrupted by SIGINT / SIGTERM after the summary of what ran).
 #![allow(dead_code, reason = "each demo uses a subset of the helpers")]
 
 use std::collections::BTreeMap;
@@ -15,6 +16,68 @@ use rapier3d_mpc184::prelude::{Backend, Real};
 
 /// Result of a demo's run.
 pub type RunResult = Result<(), Box<dyn Error>>;
+
+/// A long demo stopped by a signal at simulated time `time` (s): its exit status is 128 + the
+/// signal's number.
+#[derive(Debug)]
+pub struct Interrupted {
+    pub signal: &'static str,
+    pub status: u8,
+    pub time: Real,
+}
+
+impl Display for Interrupted {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "interrupted by {} at t = {} s", self.signal, self.time)
+    }
+}
+
+impl Error for Interrupted {}
+
+/// SIGINT and SIGTERM for the long demos: the first sets a flag the step loop polls (the demo
+/// finishes the step, prints its summary and returns [`Interrupted`]); a second exits at once.
+/// Without the `cli` feature (no signal-hook) the flags are never set.
+pub struct Interrupt {
+    int: std::sync::Arc<std::sync::atomic::AtomicBool>,
+    term: std::sync::Arc<std::sync::atomic::AtomicBool>,
+}
+
+impl Interrupt {
+    pub fn install() -> Interrupt {
+        let int = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+        let term = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+        #[cfg(feature = "cli")]
+        {
+            use signal_hook::consts::{SIGINT, SIGTERM};
+            use signal_hook::flag;
+            let any = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+            for (signal, status, own) in [(SIGINT, 130, &int), (SIGTERM, 143, &term)] {
+                // Where a handler cannot be installed the demo just runs uninterruptible.
+                let _ = flag::register_conditional_shutdown(signal, status, any.clone());
+                let _ = flag::register(signal, any.clone());
+                let _ = flag::register(signal, own.clone());
+            }
+        }
+        Interrupt { int, term }
+    }
+
+    /// The signal that arrived, as the run's end at simulated time `time`.
+    pub fn caught(&self, time: Real) -> Option<Interrupted> {
+        use std::sync::atomic::Ordering::Relaxed;
+        let (signal, status) = if self.term.load(Relaxed) {
+            ("SIGTERM", 143)
+        } else if self.int.load(Relaxed) {
+            ("SIGINT", 130)
+        } else {
+            return None;
+        };
+        Some(Interrupted {
+            signal,
+            status,
+            time,
+        })
+    }
+}
 
 /// The options of a demo that runs one scene on some backends for some time.
 pub struct Sweep {
@@ -173,7 +236,10 @@ pub fn main<O>(
             Ok(()) => ExitCode::SUCCESS,
             Err(e) => {
                 eprintln!("{demo}: {e}");
-                ExitCode::FAILURE
+                match e.downcast_ref::<Interrupted>() {
+                    Some(i) => ExitCode::from(i.status),
+                    None => ExitCode::FAILURE,
+                }
             }
         },
     }
