@@ -14,42 +14,12 @@
 //! Rapier's solver) carries part of the load, and that share is not yet added to the reaction.
 #![cfg(feature = "f64")]
 
-use rapier3d_mpc184::math::rapier::prelude::{ColliderBuilder, MassProperties, RigidBodyBuilder};
 use rapier3d_mpc184::prelude::*;
+use rapier3d_mpc184::studies::scenes;
 
 #[test]
 fn pendulum_bob_rests_on_the_floor_with_the_joint_intact() {
-    let mut world = Mpc184World::new(WorldSettings::default());
-    let bob = world.physics.bodies.insert(
-        RigidBodyBuilder::dynamic()
-            .translation(Vector::new(1.0, 0.0, 0.0))
-            .additional_mass_properties(MassProperties::new(
-                Vector::ZERO,
-                1.0,
-                Vector::splat(4e-3),
-            )),
-    );
-    let ball = ColliderBuilder::ball(0.1).density(0.0).build();
-    world
-        .physics
-        .colliders
-        .insert_with_parent(ball, bob, &mut world.physics.bodies);
-    let floor = world
-        .physics
-        .bodies
-        .insert(RigidBodyBuilder::fixed().translation(Vector::new(0.0, -1.0, 0.0)));
-    let slab = ColliderBuilder::cuboid(3.0, 0.5, 3.0).build();
-    world
-        .physics
-        .colliders
-        .insert_with_parent(slab, floor, &mut world.physics.bodies);
-    let pin = world
-        .insert_joint(
-            None,
-            Some(bob),
-            Mpc184Joint::revolute(Axis::Z, Vector::ZERO),
-        )
-        .unwrap();
+    let (mut world, bob, pin) = scenes::pendulum_onto_floor(WorldSettings::default()).unwrap();
     let mut max_gap: Real = 0.0;
     for _ in 0..300 {
         world.step().unwrap();

@@ -196,38 +196,8 @@ fn the_energy_guard_stops_an_explicit_spring_past_its_limit() {
 /// booked is the energy the bob lost, m g 0.4 m = 3.92 J (measured 3.87 J) within 2 %.
 #[test]
 fn contacts_on_jointed_bodies_are_booked() {
-    use rapier3d_mpc184::math::rapier::prelude::ColliderBuilder;
-    let mut world = Mpc184World::new(WorldSettings::default());
-    let bob = world.physics.bodies.insert(
-        RigidBodyBuilder::dynamic()
-            .translation(Vector::new(1.0, 0.0, 0.0))
-            .additional_mass_properties(MassProperties::new(
-                Vector::ZERO,
-                1.0,
-                Vector::splat(4e-3),
-            )),
-    );
-    let ball = ColliderBuilder::ball(0.1).density(0.0).build();
-    world
-        .physics
-        .colliders
-        .insert_with_parent(ball, bob, &mut world.physics.bodies);
-    let floor = world
-        .physics
-        .bodies
-        .insert(RigidBodyBuilder::fixed().translation(Vector::new(0.0, -1.0, 0.0)));
-    let slab = ColliderBuilder::cuboid(3.0, 0.5, 3.0).build();
-    world
-        .physics
-        .colliders
-        .insert_with_parent(slab, floor, &mut world.physics.bodies);
-    world
-        .insert_joint(
-            None,
-            Some(bob),
-            Mpc184Joint::revolute(Axis::Z, Vector::ZERO),
-        )
-        .unwrap();
+    let (mut world, _, _) =
+        rapier3d_mpc184::studies::scenes::pendulum_onto_floor(WorldSettings::default()).unwrap();
     let e0 = world.energy().total;
     let mut worst: Real = 0.0;
     for _ in 0..300 {

@@ -137,3 +137,41 @@ pub fn incline(
     )?;
     Ok((world, block, joint))
 }
+
+/// The pendulum that falls onto a floor (Lagrange backend by default): a 1 kg ball of radius
+/// 0.1 m (inertia 4e-3 kg m^2) 1 m from a grounded revolute z joint at the origin, released
+/// horizontally (no sleeping off), and a fixed slab whose top is at y = -0.5 m. The bob comes to
+/// rest on it at x = sqrt(1 - 0.4^2). Returns the world, the bob and the joint.
+pub fn pendulum_onto_floor(
+    settings: WorldSettings,
+) -> Result<(Mpc184World, RigidBodyHandle, JointId), Error> {
+    use crate::math::rapier::geometry::ColliderBuilder;
+    let mut world = Mpc184World::new(settings);
+    let bob = world.physics.bodies.insert(
+        RigidBodyBuilder::dynamic()
+            .translation(Vector::new(1.0, 0.0, 0.0))
+            .additional_mass_properties(MassProperties::new(
+                Vector::ZERO,
+                1.0,
+                Vector::splat(4e-3),
+            )),
+    );
+    let ball = ColliderBuilder::ball(0.1).density(0.0).build();
+    let physics = &mut world.physics;
+    physics
+        .colliders
+        .insert_with_parent(ball, bob, &mut physics.bodies);
+    let floor = physics
+        .bodies
+        .insert(RigidBodyBuilder::fixed().translation(Vector::new(0.0, -1.0, 0.0)));
+    let slab = ColliderBuilder::cuboid(3.0, 0.5, 3.0).build();
+    physics
+        .colliders
+        .insert_with_parent(slab, floor, &mut physics.bodies);
+    let pin = world.insert_joint(
+        None,
+        Some(bob),
+        Mpc184Joint::revolute(Axis::Z, Vector::ZERO),
+    )?;
+    Ok((world, bob, pin))
+}
