@@ -292,10 +292,26 @@ fn check(path: &Path) -> Result<(), Failure> {
             );
         }
     }
-    println!(
-        "DOF count (Grubler: 6 per moving body minus constraint equations): {}",
-        model.dof_count()
-    );
+    let grubler = model.dof_count();
+    println!("DOF count (Grubler: 6 per moving body minus constraint equations): {grubler}");
+    // The rank of the constraint Jacobian at the initial pose: the true mobility, and the rows
+    // Grubler counts that depend on the others (their reactions are not unique).
+    let mut model = model;
+    match model.world.mobility(&[]) {
+        Ok(mobility) => {
+            let redundant = mobility as i64 - grubler;
+            println!(
+                "mobility (rank of the constraint Jacobian at the initial pose): {mobility} DOF; \
+                 {redundant} redundant constraint row(s){}",
+                if redundant > 0 {
+                    ": their share of the reactions is not unique (the solver sets it to zero)"
+                } else {
+                    ""
+                }
+            );
+        }
+        Err(e) => println!("mobility: not computed ({e})"),
+    }
     for s in &model.steps {
         println!(
             "load step {}: {} s to {} s, dt {:.6} s, {} steps",
@@ -364,6 +380,7 @@ fn run(deck: &Deck, args: &RunArgs, out: &Path) -> Result<Summary, Failure> {
         Ok(()) => {
             if !args.quiet {
                 print_summary(&model, &e, total0, wall, state.done, out);
+                print_warnings(&model);
             }
             Ok(state.summary)
         }
@@ -485,6 +502,14 @@ fn diverged(model: &DeckModel, k: usize, e: Error, w: &Writers) -> Failure {
             ))
         }
         other => deck_failure(other),
+    }
+}
+
+/// The solver's warnings (issued once each): redundant rows and that their reactions are not
+/// unique, unconverged projections, first-order fallbacks.
+fn print_warnings(model: &DeckModel) {
+    for w in &model.world.lagrange_diagnostics().warnings {
+        println!("warning: {w}");
     }
 }
 

@@ -124,6 +124,53 @@ fn check_prints_bodies_joints_and_dof_count() {
     assert_eq!(text.matches("revolute").count(), 6, "{text}");
 }
 
+/// `check` prints the true mobility beside Grubler's count. Hand count for the slider-crank
+/// deck: 3 moving bodies (crank, rod, slider: 18 DOF), revolutes at O, A and B and the slider's
+/// translational joint (5 rows each: 20), so Grubler gives 18 - 20 = -2; the mechanism moves
+/// with one DOF, so 17 rows are independent and 3 are redundant (the out-of-plane rows of a
+/// planar loop closed by 3-D joints). Bricard: 5 rods (30 DOF), 6 revolutes (30 rows),
+/// Grubler 0, mobility 1, so 1 redundant row. Exact integers: no tolerance.
+#[test]
+fn check_prints_the_mobility_and_the_redundant_rows() {
+    for (deck, grubler, mobility, redundant) in [
+        ("slider_crank.inp", -2, 1, 3),
+        ("bricard.inp", 0, 1, 1),
+        ("pendulum_z.inp", 1, 1, 0),
+    ] {
+        let out = bin().arg("check").arg(asset(deck)).output().unwrap();
+        assert!(out.status.success());
+        let text = String::from_utf8_lossy(&out.stdout);
+        assert!(
+            text.contains(&format!("minus constraint equations): {grubler}\n")),
+            "{deck}: {text}"
+        );
+        assert!(
+            text.contains(&format!(
+                "initial pose): {mobility} DOF; {redundant} redundant constraint row(s)"
+            )),
+            "{deck}: {text}"
+        );
+    }
+}
+
+#[test]
+fn run_prints_the_solvers_warnings() {
+    let dir = temp_dir("warnings");
+    let out = bin()
+        .args(["run"])
+        .arg(asset("slider_crank.inp"))
+        .arg("--out")
+        .arg(&dir)
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains("warning: ") && text.contains("redundant constraint row(s)"),
+        "{text}"
+    );
+}
+
 #[test]
 fn run_is_deterministic_byte_for_byte() {
     // The same deck run twice by the binary writes identical CSV files (no hash-ordered
