@@ -7,9 +7,9 @@
 //! - `mpc184 pendulum`: the pendulum set on every backend (the former default job);
 //! - `mpc184` alone: runs the embedded default deck, `assets/decks/slider_crank.inp`.
 //!
-//! Exit codes: 0 success; 2 a deck error (`FILE:LINE: COMMAND: what`); 3 the simulation
+//! Exit codes: 0 success; 64 a command-line usage error (clap's message); 2 a deck error (`FILE:LINE: COMMAND: what`); 3 the simulation
 //! diverged (the CSV files hold every row up to the last good step); 4 a file could not be
-//! created or written (the message names the operation and the path, and the time up to which
+//! read, created or written (the message names the operation and the path, and the time up to which
 //! the CSV files hold whole rows); 130 / 143 interrupted by SIGINT / SIGTERM (the step under
 //! way finishes, every CSV gets the rows of that time, the summary names it; a second signal
 //! exits at once, the rows already written whole).
@@ -43,7 +43,7 @@ const DEFAULT_NAME: &str = "slider_crank.inp";
     about = "ANSYS MPC184 joints on Rapier: run APDL decks of rigid multibody models",
     long_about = "ANSYS MPC184 joints on Rapier: run APDL decks of rigid multibody models.\n\n\
                   With no command, runs the embedded default deck (assets/decks/slider_crank.inp) \
-                  into out/slider_crank.\n\nExit codes: 0 success, 2 deck error, 3 diverged, 4 file error \
+                  into out/slider_crank.\n\nExit codes: 0 success, 64 usage error, 2 deck error, 3 diverged, 4 file error \
                   (path named), 130/143 interrupted by SIGINT/SIGTERM (whole rows up to the \
                   time printed)."
 )]
@@ -161,16 +161,29 @@ fn deck_failure(e: Error) -> Failure {
     }
 }
 
+/// Exit status of a command-line usage error (BSD sysexits' `EX_USAGE`), apart from the deck
+/// errors' 2.
+const USAGE_EXIT: u8 = 64;
+
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) => {
+            let usage = e.use_stderr();
+            let _ = e.print();
+            return if usage {
+                ExitCode::from(USAGE_EXIT)
+            } else {
+                ExitCode::SUCCESS
+            };
+        }
+    };
     let result = match cli.command {
         None => default_job(),
-        Some(Command::Run(args)) => parse_file(&args.deck)
-            .map_err(|e| Failure::Deck(e.to_string()))
-            .and_then(|deck| {
-                let out = args.out.clone().unwrap_or_else(|| default_out(&args.deck));
-                run(&deck, &args, &out).map(|_| ())
-            }),
+        Some(Command::Run(args)) => read_deck(&args.deck).and_then(|deck| {
+            let out = args.out.clone().unwrap_or_else(|| default_out(&args.deck));
+            run(&deck, &args, &out).map(|_| ())
+        }),
         Some(Command::Check { deck }) => check(&deck),
         Some(Command::Pendulum) => pendulum(),
     };
@@ -235,8 +248,20 @@ fn build(deck: &Deck, options: BuildOptions) -> Result<DeckModel, Failure> {
     DeckModel::build(deck, options).map_err(deck_failure)
 }
 
+/// Reads and parses a deck: a file that cannot be read is an I/O failure naming it (exit 4),
+/// anything in it a deck error (exit 2).
+fn read_deck(path: &Path) -> Result<Deck, Failure> {
+    if let Err(e) = std::fs::metadata(path) {
+        return Err(Failure::Io(format!(
+            "reading the deck {}: {e}",
+            path.display()
+        )));
+    }
+    parse_file(path).map_err(|e| Failure::Deck(e.to_string()))
+}
+
 fn check(path: &Path) -> Result<(), Failure> {
-    let deck = parse_file(path).map_err(|e| Failure::Deck(e.to_string()))?;
+    let deck = read_deck(path)?;
     let model = build(&deck, BuildOptions::default())?;
     println!(
         "{}: {}",
@@ -505,6 +530,22 @@ fn diverged(model: &DeckModel, k: usize, e: Error, w: &Writers) -> Failure {
     }
 }
 
+/// `x` in engineering notation in 10 characters (mantissa 1 to 999 with 4 significant
+/// digits, exponent a multiple of 3), aligned in a column; exact zeros and values below
+/// 1e-12 of `scale` print as 0 (round-off, not a result).
+fn eng(x: f64, scale: f64) -> String {
+    if x == 0.0 || x.abs() < 1e-12 * scale {
+        return format!("{:>10}", "0");
+    }
+    if !x.is_finite() {
+        return format!("{x:>10}");
+    }
+    let exp = (x.abs().log10() / 3.0).floor() as i32 * 3;
+    let m = x / 10f64.powi(exp);
+    let digits = 3 - (m.abs().log10().floor() as usize).min(2);
+    format!("{:>10}", format!("{m:.digits$}e{exp}"))
+}
+
 /// The solver's warnings (issued once each): redundant rows and that their reactions are not
 /// unique, unconverged projections, first-order fallbacks.
 fn print_warnings(model: &DeckModel) {
@@ -557,19 +598,24 @@ fn print_summary(
         let Ok(o) = model.world.output(j.id) else {
             continue;
         };
-        let d = o.dofs();
+        let d = o.dofs().map(|x| x as f64);
+        // Translations against the model size, rotations against one radian, forces against
+        // the larger of the two: what is below 1e-12 of that is round-off.
+        let size = model.world.model_size() as f64;
+        let (f, m) = (o.force.length() as f64, o.moment.length() as f64);
+        let load = f.max(m);
         println!(
-            "{:>6} {:<14} {:>10.4e} {:>10.4e} {:>10.4e} {:>10.4e} {:>10.4e} {:>10.4e} {:>11.4e} {:>11.4e} {:>4} {:>4}",
+            "{:>6} {:<14} {} {} {} {} {} {} {:>11} {:>11} {:>4} {:>4}",
             j.element,
             j.kind.name(),
-            d[0],
-            d[1],
-            d[2],
-            d[3],
-            d[4],
-            d[5],
-            o.force.length(),
-            o.moment.length(),
+            eng(d[0], size),
+            eng(d[1], size),
+            eng(d[2], size),
+            eng(d[3], 1.0),
+            eng(d[4], 1.0),
+            eng(d[5], 1.0),
+            eng(f, load),
+            eng(m, load),
             o.stops,
             o.locks
         );

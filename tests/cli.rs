@@ -153,6 +153,15 @@ fn check_prints_the_mobility_and_the_redundant_rows() {
     }
 }
 
+/// A deck that does not exist is a file error naming it (exit 4), not a deck error at line 0.
+#[test]
+fn a_missing_deck_exits_4_naming_it() {
+    let out = bin().args(["run", "no-such-deck.inp"]).output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(4), "{err}");
+    assert!(err.contains("reading the deck no-such-deck.inp: "), "{err}");
+}
+
 #[test]
 fn run_prints_the_solvers_warnings() {
     let dir = temp_dir("warnings");
@@ -169,6 +178,22 @@ fn run_prints_the_solvers_warnings() {
         text.contains("warning: ") && text.contains("redundant constraint row(s)"),
         "{text}"
     );
+    // The joints' table: aligned columns (every row as long as the header).
+    let lines: Vec<&str> = text.lines().collect();
+    let head = lines
+        .iter()
+        .position(|l| l.trim_start().starts_with("elem kind"))
+        .unwrap();
+    let rows: Vec<&str> = lines[head + 1..]
+        .iter()
+        .take_while(|l| l.trim_start().starts_with(|c: char| c.is_ascii_digit()))
+        .copied()
+        .collect();
+    // Four joints: the crank bearing, the two hinges, the slider guide.
+    assert_eq!(rows.len(), 4, "{text}");
+    for r in &rows {
+        assert_eq!(r.len(), lines[head].len(), "`{r}`");
+    }
 }
 
 #[test]

@@ -79,12 +79,13 @@ fn the_integrator_flag_switches_to_the_second_order_scheme() {
 }
 
 #[test]
-fn an_unknown_integrator_exits_2() {
+fn an_unknown_integrator_is_a_usage_error_exit_64() {
     let out = Command::new(env!("CARGO_BIN_EXE_mpc184"))
         .args(["run", "x.inp", "--integrator", "third-order"])
         .output()
         .unwrap();
-    assert_eq!(out.status.code(), Some(2));
+    // A command-line usage error has its own status (64, EX_USAGE), apart from deck errors (2).
+    assert_eq!(out.status.code(), Some(64));
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(
         err.contains("first-order") && err.contains("second-order"),
