@@ -28,7 +28,6 @@ use std::hint::black_box;
 use std::time::Duration;
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use rapier3d_mpc184::math::rapier::dynamics::{MassProperties, RigidBodyBuilder};
 use rapier3d_mpc184::prelude::*;
 use rapier3d_mpc184::studies::benchmarks::{self, CHAIN_LINK_LENGTH, CHAIN_LINK_MASS};
 
@@ -113,7 +112,7 @@ fn bench(c: &mut Criterion) {
         ("chain+sleeping_chain", false, Some(true)),
         ("chain+awake_chain", false, Some(false)),
     ] {
-        let mut b = match idle_scene(stops, resting) {
+        let mut b = match benchmarks::idle_chain(settings(Backend::Lagrange), stops, resting) {
             Ok(b) => b,
             Err(e) => {
                 println!("idle100/{name}: not run: {e}");
@@ -154,50 +153,6 @@ fn rapier_alone(
             black_box(&p.bodies);
         });
     });
-}
-
-/// The 100-link chain (Lagrange, ratio 1, 20 deg), optionally with a stop at +-10 rad on every
-/// joint and a second 100-link chain hanging at rest 5 m away (`Some(can_sleep)`).
-fn idle_scene(stops: bool, resting: Option<bool>) -> Result<benchmarks::Benchmark, Error> {
-    let mut b = benchmarks::chain(
-        settings(Backend::Lagrange),
-        100,
-        CHAIN_LINK_LENGTH,
-        CHAIN_LINK_MASS,
-        1.0,
-        20f64.to_radians() as Real,
-    )?;
-    if stops {
-        // Re-insert each joint (time 0: same frames) with a stop far away.
-        for k in 0..b.joints.len() {
-            let [b1, b2] = b.joint_bodies[k];
-            let j = b.world.remove_joint(b.joints[k])?;
-            b.joints[k] = b
-                .world
-                .insert_joint(b1, b2, j.with_stop(Dof::RotZ, -10.0, 10.0))?;
-        }
-    }
-    if let Some(can_sleep) = resting {
-        let mut prev = None;
-        for k in 0..100 {
-            let m = CHAIN_LINK_MASS;
-            let bead = b.world.physics.bodies.insert(
-                RigidBodyBuilder::dynamic()
-                    .translation(Vector::new(5.0, -0.1 * (k + 1) as Real, 0.0))
-                    .additional_mass_properties(MassProperties::new(
-                        Vector::ZERO,
-                        m,
-                        Vector::splat(m * benchmarks::BEAD_GYRATION_SQUARED),
-                    ))
-                    .can_sleep(can_sleep),
-            );
-            let pivot = Vector::new(5.0, -0.1 * k as Real, 0.0);
-            b.world
-                .insert_joint(prev, Some(bead), Mpc184Joint::revolute(Axis::Z, pivot))?;
-            prev = Some(bead);
-        }
-    }
-    Ok(b)
 }
 
 criterion_group!(benches, bench);

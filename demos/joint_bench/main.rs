@@ -354,7 +354,16 @@ fn model_cost() {
     ];
     let mut base = None;
     for (name, stops, resting) in cases {
-        let mut b = match model_case(stops, resting) {
+        let mut b = match benchmarks::idle_chain(
+            WorldSettings {
+                dt: 1.0 / 60.0,
+                substeps: 4,
+                backend: Backend::Lagrange,
+                ..Default::default()
+            },
+            stops,
+            resting,
+        ) {
             Ok(b) => b,
             Err(e) => {
                 println!("{name:<44} {e}");
@@ -382,52 +391,6 @@ fn model_cost() {
             best / base_us
         );
     }
-}
-
-/// The 100-link chain of [`model_cost`], with an inactive stop on every joint (`stops`) and a
-/// second chain at rest beside it (`resting`: whether it may sleep).
-fn model_case(stops: bool, resting: Option<bool>) -> Result<Benchmark, Error> {
-    use rapier3d_mpc184::math::rapier::prelude::{MassProperties, RigidBodyBuilder};
-    let settings = WorldSettings {
-        dt: 1.0 / 60.0,
-        substeps: 4,
-        backend: Backend::Lagrange,
-        ..Default::default()
-    };
-
-    let mut b = benchmarks::chain(settings, 100, 0.1, 0.01, 1.0, 20f64.to_radians() as Real)?;
-    if stops {
-        // Re-insert each joint (time 0: same frames) with a stop far away.
-        for k in 0..b.joints.len() {
-            let [b1, b2] = b.joint_bodies[k];
-            let j = b.world.remove_joint(b.joints[k])?;
-            b.joints[k] = b
-                .world
-                .insert_joint(b1, b2, j.with_stop(Dof::RotZ, -10.0, 10.0))?;
-        }
-    }
-    if let Some(can_sleep) = resting {
-        // A second chain hanging straight down at rest 5 m away (in equilibrium).
-        let mut prev = None;
-        for k in 0..100 {
-            let m = 0.01;
-            let bead = b.world.physics.bodies.insert(
-                RigidBodyBuilder::dynamic()
-                    .translation(Vector::new(5.0, -0.1 * (k + 1) as Real, 0.0))
-                    .additional_mass_properties(MassProperties::new(
-                        Vector::ZERO,
-                        m,
-                        Vector::splat(m * benchmarks::BEAD_GYRATION_SQUARED),
-                    ))
-                    .can_sleep(can_sleep),
-            );
-            let pivot = Vector::new(5.0, -0.1 * k as Real, 0.0);
-            b.world
-                .insert_joint(prev, Some(bead), Mpc184Joint::revolute(Axis::Z, pivot))?;
-            prev = Some(bead);
-        }
-    }
-    Ok(b)
 }
 
 /// 3 s untimed, then the fastest of three timed 1 s windows (us per step).

@@ -24,6 +24,7 @@
 
 use super::scenes::G;
 use crate::catalogue::{Axis, JointKind};
+use crate::dof::Dof;
 use crate::error::{Error, JointId};
 use crate::joint::Mpc184Joint;
 use crate::math::rapier::dynamics::{MassProperties, RigidBodyBuilder, RigidBodyHandle};
@@ -700,4 +701,53 @@ fn rod_angular_velocity(d: Vector, v: Vector, n: Vector) -> Option<Vector> {
     let alpha = (b1 * a22 - b2 * a12) / det;
     let beta = (a11 * b2 - a12 * b1) / det;
     Some(Vector::X * alpha + n * beta)
+}
+
+/// The 100-link chain (ratio 1, 20 deg) of the idle-cost measurements (`joint_bench`, the
+/// criterion bench), optionally with a stop at +-10 rad on every
+/// joint and a second 100-link chain hanging at rest 5 m away (`Some(can_sleep)`).
+pub fn idle_chain(
+    settings: WorldSettings,
+    stops: bool,
+    resting: Option<bool>,
+) -> Result<Benchmark, Error> {
+    let mut b = chain(
+        settings,
+        100,
+        CHAIN_LINK_LENGTH,
+        CHAIN_LINK_MASS,
+        1.0,
+        20f64.to_radians() as Real,
+    )?;
+    if stops {
+        // Re-insert each joint (time 0: same frames) with a stop far away.
+        for k in 0..b.joints.len() {
+            let [b1, b2] = b.joint_bodies[k];
+            let j = b.world.remove_joint(b.joints[k])?;
+            b.joints[k] = b
+                .world
+                .insert_joint(b1, b2, j.with_stop(Dof::RotZ, -10.0, 10.0))?;
+        }
+    }
+    if let Some(can_sleep) = resting {
+        let mut prev = None;
+        for k in 0..100 {
+            let m = CHAIN_LINK_MASS;
+            let bead = b.world.physics.bodies.insert(
+                RigidBodyBuilder::dynamic()
+                    .translation(Vector::new(5.0, -0.1 * (k + 1) as Real, 0.0))
+                    .additional_mass_properties(MassProperties::new(
+                        Vector::ZERO,
+                        m,
+                        Vector::splat(m * BEAD_GYRATION_SQUARED),
+                    ))
+                    .can_sleep(can_sleep),
+            );
+            let pivot = Vector::new(5.0, -0.1 * k as Real, 0.0);
+            b.world
+                .insert_joint(prev, Some(bead), Mpc184Joint::revolute(Axis::Z, pivot))?;
+            prev = Some(bead);
+        }
+    }
+    Ok(b)
 }
