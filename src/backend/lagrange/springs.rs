@@ -42,24 +42,29 @@ impl Island {
             let slots = e.bodies.map(|b| self.index.get(&b).copied());
             let sides = self.sides(e, bodies);
             let ev = e.eval(sides);
-            let m_line = self.line_mass(&ev, slots, &sides);
             let c = e.spring.damping + e.spring.damping_quadratic * ev.output.rate.abs();
-            let stiff =
-                h * h * e.spring.stiffness > STIFF_LIMIT * m_line || h * c > DAMPER_LIMIT * m_line;
+            // Decided at the substep's start (the implicit update needs the line mass there),
+            // so that both kicks of a spring agree.
+            let (stiff, tension) = if end {
+                (self.spring_implicit[n], ev.output.force)
+            } else {
+                let m_line = self.line_mass(&ev, slots, &sides);
+                let stiff = h * h * e.spring.stiffness > STIFF_LIMIT * m_line
+                    || h * c > DAMPER_LIMIT * m_line;
+                self.spring_implicit[n] = stiff;
+                if stiff {
+                    self.report.implicit_springs += 1;
+                    (true, implicit_tension(e, &ev, c, h, m_line))
+                } else {
+                    (false, ev.output.force)
+                }
+            };
             // The fraction of the substep this kick covers, per side: second-order bodies half
             // at each end; first-order bodies (and every implicit spring) whole at the start.
             let share = |i: usize| match (stiff, self.second[i], end) {
                 (true, _, false) | (false, false, false) => 1.0,
                 (false, true, _) => 0.5,
                 (_, _, true) => 0.0,
-            };
-            let tension = if stiff {
-                if !end {
-                    self.report.implicit_springs += 1;
-                }
-                implicit_tension(e, &ev, c, h, m_line)
-            } else {
-                ev.output.force
             };
             let mut booked = 0.0 as Real;
             for k in 0..2 {

@@ -409,6 +409,19 @@ impl Island {
         }
     }
 
+    /// Some body of the island has an active contact (its own colliders' pairs only: no pass
+    /// over every pair of the world per island).
+    fn touches(&self, sets: &Sets) -> bool {
+        let physics = &*sets.physics;
+        self.bodies.iter().any(|b| {
+            physics.bodies[*b].colliders().iter().any(|c| {
+                physics
+                    .contact_pairs_with(*c)
+                    .any(|p| p.has_any_active_contact())
+            })
+        })
+    }
+
     /// The island's mechanical energy now: kinetic, the potential of the constant forces
     /// (gravity, user forces), the joint springs at their last evaluation and the spring
     /// elements (J).
@@ -429,7 +442,7 @@ impl Island {
         let Some(e0) = self.contact_energy.take() else {
             return;
         };
-        if self.bodies_in_contact(sets).is_empty() {
+        if !self.touches(sets) {
             return;
         }
         let e1 = self.island_energy(fx, sets);

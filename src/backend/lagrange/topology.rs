@@ -285,7 +285,7 @@ impl Island {
     }
 
     /// The solver's bodies with an active contact (their slots).
-    pub(super) fn bodies_in_contact(&self, sets: &Sets) -> Vec<usize> {
+    fn bodies_in_contact(&self, sets: &Sets) -> Vec<usize> {
         let mut touched = Vec::new();
         for pair in sets.physics.contact_pairs() {
             if !pair.has_any_active_contact() {
