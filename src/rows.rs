@@ -206,6 +206,17 @@ pub struct RowEval {
     pub j2: [Vector; 2],
 }
 
+impl RowEval {
+    /// The row's rate `J1 (v1, w1) + J2 (v2, w2)` for the two sides' velocities (linear at the
+    /// centre of mass, angular).
+    pub fn rate(&self, v1: [Vector; 2], v2: [Vector; 2]) -> Real {
+        self.j1[0].dot(v1[0])
+            + self.j1[1].dot(v1[1])
+            + self.j2[0].dot(v2[0])
+            + self.j2[1].dot(v2[1])
+    }
+}
+
 impl RowKind {
     /// The value alone at the configuration `f` (the same as [`RowKind::eval`]'s, without the
     /// Jacobian's cross products).

@@ -54,10 +54,7 @@ impl RapierBackend {
             for d in &e.loads {
                 let value = d.profile.value_after(t);
                 let row = &rows[d.dof.index()];
-                let rate = row.j1[0].dot(vel[0].0)
-                    + row.j1[1].dot(vel[0].1)
-                    + row.j2[0].dot(vel[1].0)
-                    + row.j2[1].dot(vel[1].1);
+                let rate = row.rate([vel[0].0, vel[0].1], [vel[1].0, vel[1].1]);
                 sets.ledger.work += value * rate * span;
                 wrenches.push((e.body1, row.j1[0] * value, row.j1[1] * value));
                 wrenches.push((e.body2, row.j2[0] * value, row.j2[1] * value));

@@ -7,7 +7,7 @@ use crate::rows::RowEval;
 
 use super::super::super::Sets;
 use super::super::Island;
-use super::{Effects, frames, responses, row_rate};
+use super::{Effects, frames, responses};
 
 impl Effects {
     /// The energy-consistent impact of the second-order step (the velocity update of Laursen
@@ -65,7 +65,7 @@ impl Effects {
         if a2 <= 0.0 || !now.is_finite() || !expected.is_finite() {
             return Ok(());
         }
-        let g = row_rate(&signed, vel[0], vel[1]);
+        let g = signed.rate(vel[0], vel[1]);
         let mut w = 0.0;
         for (slot, jb) in [(slots[0], signed.j1), (slots[1], signed.j2)] {
             if let Some(i) = slot {

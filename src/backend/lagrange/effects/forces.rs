@@ -7,7 +7,7 @@ use crate::math::{Real, Vector};
 
 use super::super::super::Sets;
 use super::super::Island;
-use super::{Effects, frames, row_rate};
+use super::{Effects, frames};
 
 impl Effects {
     /// Half a kick of the springs, dampers and loads: adds `(h/2) J^T f` to the momentum
@@ -37,7 +37,7 @@ impl Effects {
             let o = &e.state.output;
             let reference = [o.measure[3], o.measure[5]];
             let (m, rows) = dof_rows(&f, reference);
-            let rate: [Real; 6] = core::array::from_fn(|k| row_rate(&rows[k], vel[0], vel[1]));
+            let rate: [Real; 6] = core::array::from_fn(|k| rows[k].rate(vel[0], vel[1]));
             let x: [Real; 6] =
                 core::array::from_fn(|k| m[k] - b.reference[k].unwrap_or(e.initial[k]));
             let mut spring = [0.0; 6];

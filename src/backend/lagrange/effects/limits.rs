@@ -12,7 +12,7 @@ use crate::rows::RowEval;
 
 use super::super::super::Sets;
 use super::super::{Island, displace_state};
-use super::{Effects, frames, responses, row_rate};
+use super::{Effects, frames, responses};
 
 /// Gap (m or rad) beyond which a limit is far enough for the position stage to skip it.
 const LIMIT_MARGIN: Real = 1e-6;
@@ -140,7 +140,7 @@ fn hold_pending(lim: &Limited, pending: &[(Dof, Real)], h: Real, out: &mut Vec<A
     for &(dof, value) in pending {
         let k = dof.index();
         let row = lim.rows[k];
-        let rate = row_rate(&row, lim.v[0], lim.v[1]);
+        let rate = row.rate(lim.v[0], lim.v[1]);
         let target = -(lim.m[k] - value) / h;
         let side: Real = if rate > target { -1.0 } else { 1.0 };
         out.push(Active {
@@ -179,9 +179,9 @@ fn limit_rows(
     let mut near = Real::INFINITY;
     let k = l.dof.index();
     let row = lim.rows[k];
-    let rate = row_rate(&row, lim.v[0], lim.v[1]);
+    let rate = row.rate(lim.v[0], lim.v[1]);
     // The rate at the start of the substep, before this substep's forces.
-    let rate_n = row_rate(&row, lim.v_start[0], lim.v_start[1]);
+    let rate_n = row.rate(lim.v_start[0], lim.v_start[1]);
     for (side, limit) in [(1.0 as Real, l.min), (-1.0, l.max)] {
         if !limit.is_finite() {
             continue;

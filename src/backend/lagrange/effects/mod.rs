@@ -44,11 +44,6 @@ type EffectFrames = (FramePair, [Option<usize>; 2], [[Vector; 2]; 2]);
 /// Per row: the body velocity changes and the joint rows' multiplier changes of a unit impulse.
 type Responses = Vec<(Vec<[Real; 6]>, Vec<Real>)>;
 
-/// A row's rate `J1 (v1, w1) + J2 (v2, w2)` for the two sides' velocities.
-fn row_rate(row: &RowEval, v1: [Vector; 2], v2: [Vector; 2]) -> Real {
-    row.j1[0].dot(v1[0]) + row.j1[1].dot(v1[1]) + row.j2[0].dot(v2[0]) + row.j2[1].dot(v2[1])
-}
-
 /// What the behaviour of one joint left in the last substep (solver scratch, not state: every
 /// substep recomputes it).
 #[derive(Clone, Debug, Default)]
