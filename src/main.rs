@@ -262,7 +262,7 @@ fn read_deck(path: &Path) -> Result<Deck, Failure> {
 
 fn check(path: &Path) -> Result<(), Failure> {
     let deck = read_deck(path)?;
-    let model = build(&deck, BuildOptions::default())?;
+    let mut model = build(&deck, BuildOptions::default())?;
     println!(
         "{}: {}",
         model.file,
@@ -321,7 +321,6 @@ fn check(path: &Path) -> Result<(), Failure> {
     println!("DOF count (Grubler: 6 per moving body minus constraint equations): {grubler}");
     // The rank of the constraint Jacobian at the initial pose: the true mobility, and the rows
     // Grubler counts that depend on the others (their reactions are not unique).
-    let mut model = model;
     match model.world.mobility(&[]) {
         Ok(mobility) => {
             let redundant = mobility as i64 - grubler;
