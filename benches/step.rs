@@ -14,7 +14,7 @@
 //!   with an inactive stop on every joint (limits at +-10 rad, never reached), and with a second
 //!   100-link chain hanging at rest beside it, allowed to sleep (asleep after the 3 s run before
 //!   timing) or kept awake. The ratios to the first case are the cost of an inactive stop and of
-//!   a sleeping island (`cargo run --release --bin joint_bench -- --model` prints the same table).
+//!   a sleeping island (`cargo run --release --example joint_bench -- --model` prints the same table).
 //!
 //! One iteration is one `step()` at dt = 1/60 with 4 substeps on a world that keeps moving (no
 //! reset between iterations). Single thread, f64 by default. criterion is built without its

@@ -8,15 +8,15 @@
 //! runs the default features only, so this test is not part of CI.
 #![cfg(feature = "charts")]
 
-use std::process::Command;
+mod common;
 
-const BIN: &str = env!("CARGO_BIN_EXE_chart");
+use std::process::Command;
 
 #[test]
 fn quick_sweep_writes_every_chart() {
     let dir = std::env::temp_dir().join(format!("mpc184_chart_{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
-    let out = Command::new(BIN)
+    let out = Command::new(common::example("chart"))
         .args(["--quick", "--out"])
         .arg(&dir)
         .output()
@@ -90,7 +90,7 @@ fn quick_sweep_writes_every_chart() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 
-    let bad = Command::new(BIN)
+    let bad = Command::new(common::example("chart"))
         .arg("--bogus")
         .output()
         .expect("chart runs");

@@ -3,8 +3,8 @@
 //! `x = 1 + 0.1 cos(4 t)`. With RATTLE at dt 1/240 x 4 (`omega h = 1/240`) the phase error
 //! after 10 periods is `0.1 * 10 * 2 pi * (omega h)^2 / 24 = 4.5e-6 m`: checked at 1e-5 m.
 //! `IFORCE` (R7, `RMORE`) is the tension at time 0 at the drawn length; `ILEN` takes
-//! precedence over it (with a note), as ANSYS does. The `mpc184` binary writes `springs.csv`
-//! (`time,elem,length,force,energy`, one row per spring and output time) for such a deck.
+//! precedence over it (with a note), as ANSYS does. (`cli/tests/springs_csv.rs`: the `mpc184`
+//! binary's `springs.csv` for such a deck.)
 //!
 //! And the refusals, each a deck error naming the line: the 1-D and torsional options
 //! (KEYOPT(2) != 0, KEYOPT(3) = 1), a missing real constant set, one node only, both nodes
@@ -151,47 +151,4 @@ fn a_static_run_refuses_the_spring() {
         e.to_string().contains("spring 0 in a static analysis"),
         "{e}"
     );
-}
-
-#[cfg(feature = "cli")]
-#[test]
-fn the_binary_writes_springs_csv() {
-    let dir = std::env::temp_dir().join(format!("mpc184-springs-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    let deck_path = dir.join("spring.inp");
-    std::fs::create_dir_all(&dir).unwrap();
-    std::fs::write(
-        &deck_path,
-        deck("R,1,32,0,0,0,0,1.0", "ET,1,COMBIN14", "ANTYPE,TRANS\n")
-            .replace("TIME,15.707963267948966", "TIME,0.5"),
-    )
-    .unwrap();
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_mpc184"))
-        .arg("run")
-        .arg(&deck_path)
-        .arg("--out")
-        .arg(&dir)
-        .arg("--quiet")
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let csv = std::fs::read_to_string(dir.join("springs.csv")).unwrap();
-    let mut lines = csv.lines();
-    assert_eq!(lines.next(), Some("time,elem,length,force,energy"));
-    let rows: Vec<Vec<f64>> = lines
-        .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
-        .collect();
-    // t = 0 plus 120 steps of 1/240 s, one spring (element 1).
-    assert_eq!(rows.len(), 121);
-    let first = &rows[0];
-    assert_eq!(first[1], 1.0);
-    assert!(
-        (first[2] - 1.1).abs() < 1e-12 && (first[3] - 3.2).abs() < 1e-9,
-        "{first:?}"
-    );
-    assert!((first[4] - 0.5 * 32.0 * 0.01).abs() < 1e-9, "{first:?}");
 }

@@ -6,8 +6,8 @@
 //! the drive's value of that time, so:
 //! - the slider position equals the closed-form `x_B = R cos th + sqrt(L^2 - (R sin th)^2)`,
 //!   `th = TH0 + 4 pi t`, within 1e-9 m at every output time (the solve's residual is 1e-12 m;
-//!   1e-9 leaves round-off of the 2-turn angle, ~1e-15 rad, far behind), both in the library
-//!   and in the `nodes.csv` that `mpc184 run` writes;
+//!   1e-9 leaves round-off of the 2-turn angle, ~1e-15 rad, far behind; the `nodes.csv`
+//!   that `mpc184 run` writes is checked in `cli/tests/static_csv.rs`);
 //! - the crank bearing's relative rotation is the prescribed `4 pi t` within 1e-9 rad;
 //! - the bearing's moment is the virtual-work moment `M_z = 0.75 t g R cos th` (gravity ramped
 //!   with `KBC,0`) within 1e-9 N m: statics is exact, only round-off of a 21-row solve;
@@ -152,47 +152,4 @@ SOLVE
         matches!(r, Err(Error::StaticEquilibrium { free_dofs: 1 })),
         "got {r:?}"
     );
-}
-
-/// `mpc184 run` writes the same three CSV files for a static run; the slider's x in
-/// `nodes.csv` follows the closed form at every output time.
-#[cfg(feature = "cli")]
-#[test]
-fn mpc184_run_writes_the_csvs_of_a_static_run() {
-    let dir = std::env::temp_dir().join(format!("mpc184-static-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_mpc184"))
-        .arg("run")
-        .arg(asset("slider_crank_static.inp"))
-        .arg("--out")
-        .arg(&dir)
-        .arg("--quiet")
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let nodes = std::fs::read_to_string(dir.join("nodes.csv")).unwrap();
-    let mut rows = 0;
-    let mut worst: f64 = 0.0;
-    for line in nodes.lines().skip(1) {
-        let f: Vec<f64> = line.split(',').map(|x| x.parse().unwrap()).collect();
-        if f[1] == 6.0 {
-            rows += 1;
-            worst = worst.max((f[2] - slider_x(f[0])).abs());
-        }
-    }
-    let joints = std::fs::read_to_string(dir.join("joints.csv")).unwrap();
-    let energy = std::fs::read_to_string(dir.join("energy.csv")).unwrap();
-    assert_eq!(rows, 101, "t = 0 and 100 steps");
-    assert_eq!(
-        joints.lines().count(),
-        1 + 101 * 4,
-        "4 joints per output time"
-    );
-    assert_eq!(energy.lines().count(), 1 + 101);
-    assert!(worst <= 1e-9, "nodes.csv slider x error {worst:.3e} m");
-    let _ = std::fs::remove_dir_all(&dir);
 }

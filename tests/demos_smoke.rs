@@ -4,6 +4,8 @@
 //! 2 with the help text.
 #![cfg(feature = "f64")]
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -17,8 +19,8 @@ fn temp_out(name: &str) -> PathBuf {
 }
 
 /// Runs a demo binary with `args` and `--out dir`, asserting exit code 0.
-fn run(bin: &str, args: &[&str], dir: &Path) {
-    let out = Command::new(bin)
+fn run(bin: PathBuf, args: &[&str], dir: &Path) {
+    let out = Command::new(&bin)
         .args(args)
         .arg("--out")
         .arg(dir)
@@ -26,7 +28,8 @@ fn run(bin: &str, args: &[&str], dir: &Path) {
         .expect("demo binary runs");
     assert!(
         out.status.success(),
-        "{bin} {args:?} exited with {:?}\nstdout:\n{}\nstderr:\n{}",
+        "{} {args:?} exited with {:?}\nstdout:\n{}\nstderr:\n{}",
+        bin.display(),
         out.status.code(),
         String::from_utf8_lossy(&out.stdout),
         String::from_utf8_lossy(&out.stderr)
@@ -50,11 +53,7 @@ fn csv(path: &Path, header: &str) -> Vec<Vec<f64>> {
 #[test]
 fn double_pendulum_starts_at_the_initial_potential() {
     let dir = temp_out("double_pendulum");
-    run(
-        env!("CARGO_BIN_EXE_double_pendulum"),
-        &["--secs", "0.1"],
-        &dir,
-    );
+    run(common::example("double_pendulum"), &["--secs", "0.1"], &dir);
     let rows = csv(
         &dir.join("double_pendulum_lagrange.csv"),
         "t,theta1,theta2,energy,dE_mgL,gap,f1,f2,f1_exact,f2_exact",
@@ -70,7 +69,7 @@ fn double_pendulum_starts_at_the_initial_potential() {
 fn driven_slider_crank_follows_the_kinematics() {
     let dir = temp_out("slider_crank");
     let args = ["--mode", "driven", "--secs", "0.25"];
-    run(env!("CARGO_BIN_EXE_slider_crank"), &args, &dir);
+    run(common::example("slider_crank"), &args, &dir);
     let rows = csv(
         &dir.join("slider_crank_driven_lagrange.csv"),
         "t,crank,x,x_exact,energy,dE_scale,gap,crank_force,crank_moment_x",
@@ -91,7 +90,7 @@ fn driven_slider_crank_follows_the_kinematics() {
 fn four_bar_coupler_does_not_turn() {
     let dir = temp_out("four_bar");
     let args = ["--backend", "lagrange", "--secs", "0.25"];
-    run(env!("CARGO_BIN_EXE_four_bar"), &args, &dir);
+    run(common::example("four_bar"), &args, &dir);
     let rows = csv(
         &dir.join("four_bar_lagrange.csv"),
         "t,crank,coupler,energy,dE_scale,gap",
@@ -108,7 +107,7 @@ fn four_bar_coupler_does_not_turn() {
 fn bricard_moves_and_keeps_its_energy() {
     let dir = temp_out("bricard");
     let args = ["--backend", "lagrange", "--secs", "0.1"];
-    run(env!("CARGO_BIN_EXE_bricard"), &args, &dir);
+    run(common::example("bricard"), &args, &dir);
     let rows = csv(
         &dir.join("bricard_lagrange.csv"),
         "t,p3_x,p3_y,p3_z,speed,energy,dE_scale,gap,redundant",
@@ -127,7 +126,7 @@ fn bricard_moves_and_keeps_its_energy() {
 fn heavy_chain_stays_closed_on_lagrange() {
     let dir = temp_out("chain");
     let args = ["--n", "10", "--backend", "lagrange", "--secs", "0.2"];
-    run(env!("CARGO_BIN_EXE_chain"), &args, &dir);
+    run(common::example("chain"), &args, &dir);
     let rows = csv(
         &dir.join("chain_lagrange.csv"),
         "t,tip_x,tip_y,energy,dE_scale,gap",
@@ -145,7 +144,7 @@ fn screw_jack_self_locks_and_the_free_one_descends() {
     let dir = temp_out("screw_jack");
     // mu 0.1 > tan(l) = 0.053 (5 mm lead, 15 mm radius): self-locking; the demo adds mu = tan(l) / 2.
     let args = ["--mu", "0.1", "--iters", "8"];
-    run(env!("CARGO_BIN_EXE_screw_jack"), &args, &dir);
+    run(common::example("screw_jack"), &args, &dir);
     csv(&dir.join("screw_jack_bisection.csv"), "search,moment,u_z");
     let rows = csv(
         &dir.join("screw_jack_load.csv"),
@@ -172,7 +171,7 @@ fn screw_jack_self_locks_and_the_free_one_descends() {
 #[test]
 fn door_never_passes_its_stops() {
     let dir = temp_out("door_hinge");
-    run(env!("CARGO_BIN_EXE_door_hinge"), &["--secs", "2.5"], &dir);
+    run(common::example("door_hinge"), &["--secs", "2.5"], &dir);
     let rows = csv(
         &dir.join("door_hinge.csv"),
         "t,angle,rate,stops,locks,slipping,friction,normal,kinetic,potential,dissipated,work,balance",
@@ -198,7 +197,7 @@ fn door_never_passes_its_stops() {
 fn ecs_demo_despawns_a_joint_and_frees_the_bead() {
     let dir = temp_out("ecs_demo");
     let args = ["--frames", "20", "--despawn-at", "10"];
-    run(env!("CARGO_BIN_EXE_ecs_demo"), &args, &dir);
+    run(common::example("ecs_demo"), &args, &dir);
     let rows = csv(
         &dir.join("ecs_demo.csv"),
         "frame,t,pend_rotz,pend_force,pend_force_exact,link1_rotz,link1_force,link2_rotz,link2_force,bead2_vy",
@@ -225,7 +224,7 @@ fn ecs_demo_despawns_a_joint_and_frees_the_bead() {
 
 #[test]
 fn a_bad_flag_exits_2_with_the_help() {
-    let out = Command::new(env!("CARGO_BIN_EXE_chain"))
+    let out = Command::new(common::example("chain"))
         .args(["--n", "many"])
         .output()
         .expect("demo binary runs");

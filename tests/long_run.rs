@@ -11,10 +11,12 @@
 //!
 //! Run it with `cargo test --release --test long_run -- --ignored --nocapture`.
 
+mod common;
+
 #[test]
 #[ignore = "one million substeps: about 100 s in release"]
 fn a_million_substeps_stay_finite_bounded_and_flat() {
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_long_run"))
+    let out = std::process::Command::new(common::example("long_run"))
         .output()
         .unwrap();
     let stdout = String::from_utf8_lossy(&out.stdout);

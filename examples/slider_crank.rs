@@ -1,4 +1,4 @@
-//! `cargo run --release --bin slider_crank -- [--mode both|free|driven] [--rate RAD_S] [--rod-slider universal|spherical] [--backend NAME|all] [--dt S] [--substeps N] [--secs S] [--out DIR]`
+//! `cargo run --release --example slider_crank -- [--mode both|free|driven] [--rate RAD_S] [--rod-slider universal|spherical] [--backend NAME|all] [--dt S] [--substeps N] [--secs S] [--out DIR]`
 //!
 //! Scene: the IFToMM spatial rigid slider-crank (`benchmarks::slider_crank`): crank r = 0.08 m on
 //! a revolute x at A = (0, 0.1, 0.12), rod l = 0.3 m (spherical at the crank pin B, universal at

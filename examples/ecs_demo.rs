@@ -1,4 +1,4 @@
-//! `cargo run --release --bin ecs_demo -- [--frames N] [--despawn-at FRAME] [--every N] [--backend NAME] [--out DIR]`
+//! `cargo run --release --example ecs_demo -- [--frames N] [--despawn-at FRAME] [--every N] [--backend NAME] [--out DIR]`
 //!
 //! Scene, as `bevy_ecs` entities driven by `Mpc184Plugin` (a bare `World` + `Schedule`, one
 //! `schedule.run` per frame of 1/60 s, 4 substeps, gravity -Y): a pendulum (1 kg bob with

@@ -10,7 +10,7 @@
 //!   hold whole rows, and every file ends in a whole row at that time.
 //!
 //! No physics and no timing: the checks are exact.
-#![cfg(all(feature = "cli", unix))]
+#![cfg(unix)]
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
@@ -30,7 +30,9 @@ fn temp_dir(name: &str) -> PathBuf {
 /// The pendulum deck run for 10^5 s (2.4e7 steps: it never ends by itself here).
 fn long_deck(dir: &Path) -> PathBuf {
     let text = std::fs::read_to_string(
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/decks/pendulum_z.inp"),
+        Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("..")
+            .join("assets/decks/pendulum_z.inp"),
     )
     .unwrap();
     let text: String = text
@@ -127,7 +129,9 @@ fn an_output_directory_that_is_a_file_exits_4_naming_it() {
     let dir = temp_dir("notadir");
     let file = dir.join("plain-file");
     std::fs::write(&file, "x").unwrap();
-    let deck = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/decks/pendulum_z.inp");
+    let deck = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("..")
+        .join("assets/decks/pendulum_z.inp");
     let out = Command::new(bin())
         .arg("run")
         .arg(&deck)

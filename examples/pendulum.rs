@@ -1,4 +1,4 @@
-//! `cargo run --release --bin pendulum -- [--backend rapier-impulse|rapier-multibody] [--theta0 DEG] [--seconds S] [--csv FILE]`
+//! `cargo run --release --example pendulum -- [--backend rapier-impulse|rapier-multibody] [--theta0 DEG] [--seconds S] [--csv FILE]`
 //!
 //! Headless revolute pendulum (1 kg bob, 1 m, grounded revolute z at the origin, dt = 1/60 s,
 //! 4 substeps): prints every 0.5 s the joint angle, the energy error and the recovered rod

@@ -1,4 +1,4 @@
-//! `cargo run --release --features charts --bin chart -- [--quick] [--out DIR]`
+//! `cargo run --release --features charts --example chart -- [--quick] [--out DIR]`
 //!
 //! The work-precision study (issue 7, item 3): for each scene (IFToMM A01 pendulum, A02
 //! parallelogram four-bar, A04 Bricard, a 100-link chain with a 1:1000 end mass, the IFToMM

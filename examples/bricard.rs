@@ -1,4 +1,4 @@
-//! `cargo run --release --bin bricard -- [--backend NAME|all] [--dt S] [--substeps N] [--secs S] [--out DIR]`
+//! `cargo run --release --example bricard -- [--backend NAME|all] [--dt S] [--substeps N] [--secs S] [--out DIR]`
 //!
 //! Scene: IFToMM A04, Bricard's mechanism (`benchmarks::bricard`): five rods of 1 m and 1 kg in a
 //! closed loop with the ground through six revolute joints, gravity -Y, released at rest. By

@@ -36,7 +36,6 @@ impl Error for Interrupted {}
 
 /// SIGINT and SIGTERM for the long demos: the first sets a flag the step loop polls (the demo
 /// finishes the step, prints its summary and returns [`Interrupted`]); a second exits at once.
-/// Without the `cli` feature (no signal-hook) the flags are never set.
 pub struct Interrupt {
     int: std::sync::Arc<std::sync::atomic::AtomicBool>,
     term: std::sync::Arc<std::sync::atomic::AtomicBool>,
@@ -46,7 +45,6 @@ impl Interrupt {
     pub fn install() -> Interrupt {
         let int = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
         let term = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
-        #[cfg(feature = "cli")]
         {
             use signal_hook::consts::{SIGINT, SIGTERM};
             use signal_hook::flag;

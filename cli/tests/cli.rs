@@ -2,7 +2,6 @@
 //! exact headers and one row per output step (plus t = 0) per joint or node; a malformed deck
 //! exits 2 with `file:line: COMMAND:` on stderr; an unsupported element exits 2 with its hint;
 //! `check` prints the model. No physics tolerances here (`tests/deck_run.rs` has them).
-#![cfg(feature = "cli")]
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -20,6 +19,7 @@ fn temp_dir(name: &str) -> PathBuf {
 
 fn asset(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("..")
         .join("assets/decks")
         .join(name)
 }

@@ -1,4 +1,4 @@
-//! `cargo run --release --bin four_bar -- [--backend NAME|all] [--dt S] [--substeps N] [--secs S] [--out DIR]`
+//! `cargo run --release --example four_bar -- [--backend NAME|all] [--dt S] [--substeps N] [--secs S] [--out DIR]`
 //!
 //! Scene: the parallelogram four-bar of IFToMM A02 with one window
 //! (`benchmarks::four_bar_parallelogram`): crank, coupler and rocker of 1 m and 1 kg on four

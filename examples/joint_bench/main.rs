@@ -1,4 +1,4 @@
-//! `cargo run --release --bin joint_bench -- [--quick] [--model] [--cost]`
+//! `cargo run --release --example joint_bench -- [--quick] [--model] [--cost]`
 //!
 //! The Lagrange backend side by side with Rapier's impulse and multibody joints on the scenes of
 //! the solver issue (single thread, f64): the 90 deg pendulum, revolute chains of 10, 100 and

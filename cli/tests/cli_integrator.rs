@@ -9,7 +9,6 @@
 //! oscillation). First order on the same run: 7.3e-3 m and 5.6e-2 J; asserted at least ten times
 //! the second-order figures so the flag demonstrably switches the scheme. An unknown value exits
 //! 2 with clap's message naming the possible values.
-#![cfg(all(feature = "cli", feature = "f64"))]
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -20,7 +19,9 @@ fn run(integrator: &str) -> (f64, f64) {
         std::process::id()
     ));
     let _ = std::fs::remove_dir_all(&dir);
-    let deck: PathBuf = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/decks/pendulum_z.inp");
+    let deck: PathBuf = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("..")
+        .join("assets/decks/pendulum_z.inp");
     let out = Command::new(env!("CARGO_BIN_EXE_mpc184"))
         .arg("run")
         .arg(&deck)

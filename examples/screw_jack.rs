@@ -1,4 +1,4 @@
-//! `cargo run --release --bin screw_jack -- [--mu MU] [--pitch P] [--radius R] [--mass M] [--secs S] [--out DIR]`
+//! `cargo run --release --example screw_jack -- [--mu MU] [--pitch P] [--radius R] [--mass M] [--secs S] [--out DIR]`
 //!
 //! Scene: a screw jack on the Lagrange backend. A grounded vertical screw (KEYOPT(1) = 17,
 //! `JointKind::Screw { pitch }`, e3 along global +Y, `u_z = p theta` with p in m/rad) carries a

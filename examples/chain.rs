@@ -1,4 +1,4 @@
-//! `cargo run --release --bin chain -- [--n N] [--ratio R] [--backend NAME|all] [--dt S] [--substeps N] [--secs S] [--out DIR]`
+//! `cargo run --release --example chain -- [--n N] [--ratio R] [--backend NAME|all] [--dt S] [--substeps N] [--secs S] [--out DIR]`
 //!
 //! Scene: a hanging revolute-z chain (`benchmarks::chain`): `--n` massless 0.1 m links with
 //! 0.01 kg beads, the last bead `--ratio` times heavier, released straight at 20 deg from the

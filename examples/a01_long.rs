@@ -1,4 +1,4 @@
-//! `cargo run --release --bin a01_long -- [--seconds S] [--target M] [--max-rate R]`
+//! `cargo run --release --example a01_long -- [--seconds S] [--target M] [--max-rate R]`
 //!
 //! IFToMM benchmark A01 (simple pendulum: 1 kg bob on 1 m, released horizontally, gravity
 //! 9.81 m/s^2) over its full 2000 s, at the benchmark's high precision: the bob's position

@@ -21,9 +21,7 @@ use std::time::Instant;
 
 use clap::{Parser, Subcommand, ValueEnum};
 
-#[path = "cli/interrupt.rs"]
 mod interrupt;
-#[path = "cli/output.rs"]
 mod output;
 
 use interrupt::Interrupt;
@@ -33,7 +31,7 @@ use rapier3d_mpc184::prelude::*;
 use rapier3d_mpc184::studies::metrics::pendulum_study;
 
 /// The default deck, run by `mpc184` with no arguments.
-const DEFAULT_DECK: &str = include_str!("../assets/decks/slider_crank.inp");
+const DEFAULT_DECK: &str = include_str!("../../assets/decks/slider_crank.inp");
 const DEFAULT_NAME: &str = "slider_crank.inp";
 
 #[derive(Parser)]

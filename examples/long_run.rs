@@ -1,4 +1,4 @@
-//! `cargo run --release --bin long_run -- [--substeps-total N] [--substeps N] [--dt S] [--drive W] [--report N]`
+//! `cargo run --release --example long_run -- [--substeps-total N] [--substeps N] [--dt S] [--drive W] [--report N]`
 //!
 //! Scene: a hanging chain of 10 revolute-z links (0.2 m, 0.5 kg uniform rods, gravity -Y),
 //! released at 30 deg from the vertical, whose top hinge is turned at `--drive` rad/s (default

@@ -1,4 +1,4 @@
-//! `cargo run --release --bin double_pendulum -- [--backend NAME|all] [--dt S] [--substeps N] [--secs S] [--out DIR]`
+//! `cargo run --release --example double_pendulum -- [--backend NAME|all] [--dt S] [--substeps N] [--secs S] [--out DIR]`
 //!
 //! Scene: a planar double pendulum (`benchmarks::chain` with two links): two massless 1 m links
 //! with 1 kg beads (isotropic inertia 1e-5 kg m^2, "point-ish"), revolute z joints at the origin

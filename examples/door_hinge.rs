@@ -1,4 +1,4 @@
-//! `cargo run --release --bin door_hinge -- [--mu MU] [--tilt DEG] [--push NM] [--pulse S] [--latch DEG] [--secs S] [--out DIR]`
+//! `cargo run --release --example door_hinge -- [--mu MU] [--tilt DEG] [--push NM] [--pulse S] [--latch DEG] [--secs S] [--out DIR]`
 //!
 //! Scene: a door of 20 kg, 1 m wide, 2 m high, 40 mm thick on a grounded revolute joint (Lagrange
 //! backend, revolute z) along its edge. The hinge axis leans `--tilt` degrees from the vertical

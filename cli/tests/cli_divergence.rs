@@ -11,7 +11,6 @@
 //! its row (as the last step of a run does).
 //!
 //! No tolerance: the checks are on counts, exact times and finiteness.
-#![cfg(feature = "cli")]
 
 use std::path::PathBuf;
 use std::process::Command;
