@@ -1,4 +1,4 @@
-//! `cargo run --release --example a01_long -- [--seconds S] [--target M] [--max-rate R]`
+//! `cargo run --release --example a01_long -- [--secs S] [--target M] [--max-rate R]`
 //!
 //! IFToMM benchmark A01 (simple pendulum: 1 kg bob on 1 m, released horizontally, gravity
 //! 9.81 m/s^2) over its full 2000 s, at the benchmark's high precision: the bob's position
@@ -12,52 +12,38 @@
 //! energy drift and the CPU time of the process (user + system from `/proc/self/stat`, so a
 //! loaded machine does not inflate it; the wall time where that file is missing).
 
+#[path = "common/mod.rs"]
+mod common;
+
 use std::process::ExitCode;
 use std::time::Instant;
 
 use rapier3d_mpc184::prelude::*;
 use rapier3d_mpc184::studies::scenes::{self, G};
 
-const HELP: &str = "a01_long: IFToMM A01 pendulum over 2000 s at high precision (1e-3 m)
-
-OPTIONS:
-    --seconds S     simulated time (default 2000, the benchmark's)
-    --target M      precision to reach (default 1e-3 m)
-    --max-rate R    largest substep rate tried (default 30720 /s)
-    --help          this text";
+/// IFToMM A01 pendulum over 2000 s at high precision (1e-3 m)
+#[derive(clap::Parser)]
+struct Cli {
+    /// Simulated time, s (the benchmark's 2000)
+    #[arg(long, value_name = "S", value_parser = common::real, default_value = "2000")]
+    secs: f64,
+    /// Precision to reach, m
+    #[arg(long, value_name = "M", value_parser = common::real, default_value = "1e-3")]
+    target: f64,
+    /// Largest substep rate tried, 1/s (at least 240)
+    #[arg(long, value_name = "R", default_value = "30720", value_parser = clap::value_parser!(u32).range(240..))]
+    max_rate: u32,
+}
 
 const OUTPUT: f64 = 1.0 / 30.0;
 const INERTIA: f64 = 1e-4;
 
 fn main() -> ExitCode {
-    let (mut seconds, mut target, mut max_rate) = (2000.0f64, 1e-3f64, 30720u32);
-    let mut args = std::env::args().skip(1);
-    while let Some(a) = args.next() {
-        let mut num = |name: &str| -> Result<f64, String> {
-            args.next()
-                .ok_or_else(|| format!("{name} needs a value"))?
-                .parse::<f64>()
-                .map_err(|e| format!("{name}: {e}"))
-        };
-        let r = match a.as_str() {
-            "--help" | "-h" => {
-                println!("{HELP}");
-                return ExitCode::SUCCESS;
-            }
-            "--seconds" => num("--seconds").map(|v| seconds = v),
-            "--target" => num("--target").map(|v| target = v),
-            "--max-rate" => num("--max-rate").map(|v| max_rate = v as u32),
-            _ => Err(format!("unexpected argument `{a}`")),
-        };
-        if let Err(e) = r {
-            eprintln!("a01_long: {e}\n\n{HELP}");
-            return ExitCode::from(2);
-        }
-    }
-    if !(seconds > 0.0 && target > 0.0 && max_rate >= 240) {
-        eprintln!("a01_long: seconds and target must be positive, max-rate at least 240");
-        return ExitCode::from(2);
-    }
+    let Cli {
+        secs: seconds,
+        target,
+        max_rate,
+    } = common::parse("a01_long", &[]);
     println!(
         "IFToMM A01 pendulum, {seconds} s, target {target:.0e} m (bob position, every 1/30 s), \
          Lagrange backend, dt = 1/60 s"

@@ -23,31 +23,25 @@ mod common;
 use std::process::ExitCode;
 use std::time::Instant;
 
-use common::{Args, Csv, RunResult};
+use common::{Csv, RunResult};
 use rapier3d_mpc184::prelude::*;
 use rapier3d_mpc184::studies::benchmarks;
-
-const HELP: &str = "bricard: IFToMM A04, Bricard's overconstrained mechanism
-
-OPTIONS:
-    --backend NAME   all (default), lagrange, rapier-impulse or rapier-multibody
-    --dt S           time step (default 1/100; a/b accepted)
-    --substeps N     substeps per step (default 4)
-    --secs S         simulated time (default 10)
-    --out DIR        CSV directory (default out/bricard)
-    --help           this text";
 
 /// Probe speed (m/s) under which the mechanism counts as stopped.
 const STOPPED: Real = 1e-3;
 
 type Opts = common::Sweep;
 
-fn main() -> ExitCode {
-    common::main("bricard", HELP, parse, run)
+/// IFToMM A04, Bricard's overconstrained mechanism
+#[derive(clap::Parser)]
+struct Cli {
+    #[command(flatten)]
+    run: common::RunArgs,
 }
 
-fn parse(a: &mut Args) -> Result<Opts, String> {
-    a.sweep("all", 1.0 / 100.0, 10.0)
+fn main() -> ExitCode {
+    let cli: Cli = common::parse("bricard", &[("dt", "1/100")]);
+    common::main("bricard", cli.run.sweep(), run)
 }
 
 fn run(o: Opts) -> RunResult {

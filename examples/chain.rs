@@ -19,21 +19,9 @@ mod common;
 use std::process::ExitCode;
 use std::time::Instant;
 
-use common::{Args, Csv, RunResult};
+use common::{Csv, RunResult};
 use rapier3d_mpc184::prelude::*;
 use rapier3d_mpc184::studies::benchmarks::{self, CHAIN_LINK_LENGTH, CHAIN_LINK_MASS};
-
-const HELP: &str = "chain: a hanging revolute chain with a heavy end bead
-
-OPTIONS:
-    --n N            links (default 100)
-    --ratio R        end-bead mass ratio (default 1000)
-    --backend NAME   all (default), lagrange, rapier-impulse or rapier-multibody
-    --dt S           time step (default 1/60; a/b accepted)
-    --substeps N     substeps per step (default 4)
-    --secs S         simulated time (default 10)
-    --out DIR        CSV directory (default out/chain)
-    --help           this text";
 
 struct Opts {
     n: usize,
@@ -45,20 +33,32 @@ struct Opts {
     out: std::path::PathBuf,
 }
 
-fn main() -> ExitCode {
-    common::main("chain", HELP, parse, run)
+/// a hanging revolute chain with a heavy end bead
+#[derive(clap::Parser)]
+struct Cli {
+    /// Links
+    #[arg(long, value_name = "N", value_parser = common::count, default_value = "100")]
+    n: usize,
+    /// End-bead mass ratio
+    #[arg(long, value_name = "R", value_parser = common::real, default_value = "1000")]
+    ratio: Real,
+    #[command(flatten)]
+    run: common::RunArgs,
 }
 
-fn parse(a: &mut Args) -> Result<Opts, String> {
-    Ok(Opts {
-        n: a.count("n", 100, 1)?,
-        ratio: a.real("ratio", 1000.0)?,
-        backends: a.backends("all")?,
-        dt: a.real("dt", 1.0 / 60.0)?,
-        substeps: a.count("substeps", 4, 1)?,
-        secs: a.real("secs", 10.0)?,
-        out: a.out_dir(),
-    })
+fn main() -> ExitCode {
+    let cli: Cli = common::parse("chain", &[]);
+    let s = cli.run.sweep();
+    let o = Opts {
+        n: cli.n,
+        ratio: cli.ratio,
+        backends: s.backends,
+        dt: s.dt,
+        substeps: s.substeps,
+        secs: s.secs,
+        out: s.out,
+    };
+    common::main("chain", o, run)
 }
 
 fn run(o: Opts) -> RunResult {

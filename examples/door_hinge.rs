@@ -32,22 +32,9 @@ mod common;
 
 use std::process::ExitCode;
 
-use common::{Args, Csv, RunResult};
+use common::{Csv, RunResult};
 use rapier3d_mpc184::math::rapier::prelude::{MassProperties, RigidBodyBuilder};
 use rapier3d_mpc184::prelude::*;
-
-const HELP: &str =
-    "door_hinge: a door on a tilted hinge with friction, a stop and an optional latch
-
-OPTIONS:
-    --mu MU       hinge friction coefficient (default 0.2)
-    --tilt DEG    hinge axis lean from the vertical (default 2)
-    --push NM     opening moment of the pulse, N m (default 40)
-    --pulse S     pulse length, s (default 0.25)
-    --latch DEG   lock the door when it opens past DEG (default: no latch)
-    --secs S      simulated time (default 12)
-    --out DIR     CSV directory (default out/door_hinge)
-    --help        this text";
 
 const MASS: Real = 20.0;
 const WIDTH: Real = 1.0;
@@ -56,31 +43,34 @@ const THICKNESS: Real = 0.04;
 /// The wall stop (rad).
 const OPEN_STOP_DEG: Real = 100.0;
 
+/// a door on a tilted hinge with friction, a stop and an optional latch
+#[derive(clap::Parser)]
 struct Opts {
+    /// Hinge friction coefficient
+    #[arg(long, value_name = "MU", value_parser = common::any_real, default_value = "0.2")]
     mu: Real,
+    /// Hinge axis lean from the vertical, deg
+    #[arg(long, value_name = "DEG", value_parser = common::any_real, default_value = "2")]
     tilt: Real,
+    /// Opening moment of the pulse, N m
+    #[arg(long, value_name = "NM", value_parser = common::any_real, default_value = "40")]
     push: Real,
+    /// Pulse length, s
+    #[arg(long, value_name = "S", value_parser = common::real, default_value = "0.25")]
     pulse: Real,
+    /// Lock the door when it opens past DEG [default: no latch]
+    #[arg(long, value_name = "DEG", value_parser = common::any_real)]
     latch: Option<Real>,
+    /// Simulated time, s
+    #[arg(long, value_name = "S", value_parser = common::real, default_value = "12")]
     secs: Real,
+    /// CSV directory
+    #[arg(long, value_name = "DIR")]
     out: std::path::PathBuf,
 }
 
 fn main() -> ExitCode {
-    common::main("door_hinge", HELP, parse, run)
-}
-
-fn parse(a: &mut Args) -> Result<Opts, String> {
-    let latch: Real = a.get("latch", Real::NAN)?;
-    Ok(Opts {
-        mu: a.get("mu", 0.2)?,
-        tilt: a.get("tilt", 2.0)?,
-        push: a.get("push", 40.0)?,
-        pulse: a.real("pulse", 0.25)?,
-        latch: latch.is_finite().then_some(latch),
-        secs: a.real("secs", 12.0)?,
-        out: a.out_dir(),
-    })
+    common::main("door_hinge", common::parse("door_hinge", &[]), run)
 }
 
 fn run(o: Opts) -> RunResult {

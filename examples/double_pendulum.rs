@@ -30,33 +30,27 @@ mod common;
 use std::process::ExitCode;
 use std::time::Instant;
 
-use common::{Args, Csv, RunResult};
+use common::{Csv, RunResult};
 use rapier3d_mpc184::math::PI;
 use rapier3d_mpc184::prelude::*;
 use rapier3d_mpc184::studies::benchmarks::{self, BEAD_GYRATION_SQUARED, Benchmark};
 use rapier3d_mpc184::studies::scenes::G;
-
-const HELP: &str = "double_pendulum: two 1 m links with 1 kg beads released horizontally (chaotic)
-
-OPTIONS:
-    --backend NAME   lagrange (default), rapier-impulse, rapier-multibody or all
-    --dt S           time step (default 1/60; a/b accepted)
-    --substeps N     substeps per step (default 4)
-    --secs S         simulated time (default 10)
-    --out DIR        CSV directory (default out/double_pendulum)
-    --help           this text";
 
 const M: Real = 1.0;
 const L: Real = 1.0;
 
 type Opts = common::Sweep;
 
-fn main() -> ExitCode {
-    common::main("double_pendulum", HELP, parse, run)
+/// two 1 m links with 1 kg beads released horizontally (chaotic)
+#[derive(clap::Parser)]
+struct Cli {
+    #[command(flatten)]
+    run: common::RunArgs,
 }
 
-fn parse(a: &mut Args) -> Result<Opts, String> {
-    a.sweep("lagrange", 1.0 / 60.0, 10.0)
+fn main() -> ExitCode {
+    let cli: Cli = common::parse("double_pendulum", &[("backend", "lagrange")]);
+    common::main("double_pendulum", cli.run.sweep(), run)
 }
 
 fn build(backend: Backend, dt: Real, substeps: usize) -> Result<Benchmark, Error> {

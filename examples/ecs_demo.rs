@@ -21,21 +21,31 @@ mod common;
 use std::process::ExitCode;
 
 use bevy_ecs::prelude::*;
-use common::{Args, Csv, RunResult};
+use common::{Csv, RunResult};
 use rapier3d_mpc184::ecs::*;
 use rapier3d_mpc184::math::PI;
 use rapier3d_mpc184::prelude::*;
 use rapier3d_mpc184::studies::scenes::G;
 
-const HELP: &str = "ecs_demo: a pendulum and a two-link chain as bevy_ecs entities (Mpc184Plugin)
-
-OPTIONS:
-    --frames N         frames of 1/60 s (default 240)
-    --despawn-at F     frame at which the chain's second joint is despawned (default frames/2)
-    --every N          print every N frames (default 20)
-    --backend NAME     lagrange (default), rapier-impulse or rapier-multibody
-    --out DIR          CSV directory (default out/ecs_demo)
-    --help             this text";
+/// a pendulum and a two-link chain as bevy_ecs entities (Mpc184Plugin)
+#[derive(clap::Parser)]
+struct Cli {
+    /// Frames of 1/60 s
+    #[arg(long, value_name = "N", value_parser = common::count, default_value = "240")]
+    frames: usize,
+    /// Frame at which the chain's second joint is despawned [default: frames/2]
+    #[arg(long, value_name = "F", value_parser = common::count)]
+    despawn_at: Option<usize>,
+    /// Print every N frames
+    #[arg(long, value_name = "N", value_parser = common::count, default_value = "20")]
+    every: usize,
+    /// Backend: lagrange, rapier-impulse or rapier-multibody
+    #[arg(long, value_name = "NAME", value_parser = common::backends, default_value = "lagrange")]
+    backend: common::Backends,
+    /// CSV directory
+    #[arg(long, value_name = "DIR")]
+    out: std::path::PathBuf,
+}
 
 struct Opts {
     frames: usize,
@@ -46,24 +56,22 @@ struct Opts {
 }
 
 fn main() -> ExitCode {
-    common::main("ecs_demo", HELP, parse, run)
-}
-
-fn parse(a: &mut Args) -> Result<Opts, String> {
-    let frames = a.count("frames", 240, 2)?;
-    let despawn_at = a.count("despawn-at", frames / 2, 1)?;
-    let every = a.count("every", 20, 1)?;
-    let backend = match a.backends("lagrange")?.as_slice() {
+    let cli: Cli = common::parse("ecs_demo", &[]);
+    let backend = match cli.backend.0.as_slice() {
         [b] => *b,
-        _ => return Err("--backend: one backend (not all)".into()),
+        _ => common::usage_error("--backend: one backend (not all)"),
     };
-    Ok(Opts {
-        frames,
-        despawn_at,
-        every,
+    if cli.frames < 2 {
+        common::usage_error("--frames: at least 2");
+    }
+    let o = Opts {
+        frames: cli.frames,
+        despawn_at: cli.despawn_at.unwrap_or(cli.frames / 2),
+        every: cli.every,
         backend,
-        out: a.out_dir(),
-    })
+        out: cli.out,
+    };
+    common::main("ecs_demo", o, run)
 }
 
 fn hinge(world: &mut World, at: Vector, body1: Option<Entity>, body2: Entity) -> Entity {

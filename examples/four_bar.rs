@@ -23,21 +23,10 @@ mod common;
 use std::process::ExitCode;
 use std::time::Instant;
 
-use common::{Args, Csv, RunResult};
+use common::{Csv, RunResult};
 use rapier3d_mpc184::math::PI;
 use rapier3d_mpc184::prelude::*;
 use rapier3d_mpc184::studies::benchmarks;
-
-const HELP: &str =
-    "four_bar: the parallelogram four-bar (IFToMM A02) through its singular positions
-
-OPTIONS:
-    --backend NAME   all (default), lagrange, rapier-impulse or rapier-multibody
-    --dt S           time step (default 1/60; a/b accepted)
-    --substeps N     substeps per step (default 4)
-    --secs S         simulated time (default 10)
-    --out DIR        CSV directory (default out/four_bar)
-    --help           this text";
 
 type Opts = common::Sweep;
 
@@ -50,12 +39,16 @@ struct Turn {
     gap: Real,
 }
 
-fn main() -> ExitCode {
-    common::main("four_bar", HELP, parse, run)
+/// the parallelogram four-bar (IFToMM A02) through its singular positions
+#[derive(clap::Parser)]
+struct Cli {
+    #[command(flatten)]
+    run: common::RunArgs,
 }
 
-fn parse(a: &mut Args) -> Result<Opts, String> {
-    a.sweep("all", 1.0 / 60.0, 10.0)
+fn main() -> ExitCode {
+    let cli: Cli = common::parse("four_bar", &[]);
+    common::main("four_bar", cli.run.sweep(), run)
 }
 
 fn run(o: Opts) -> RunResult {

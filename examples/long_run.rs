@@ -25,46 +25,37 @@ mod common;
 use std::process::ExitCode;
 use std::time::Instant;
 
-use common::{Args, RunResult};
+use common::RunResult;
 use rapier3d_mpc184::math::rapier::prelude::{MassProperties, RigidBodyBuilder};
 use rapier3d_mpc184::prelude::*;
-
-const HELP: &str =
-    "long_run: one million substeps of a driven 10-link chain with stops, locks and friction
-
-OPTIONS:
-    --substeps-total N   substeps to run (default 1000000)
-    --substeps N         substeps per step (default 4)
-    --dt S               time step (default 1/60; a/b accepted)
-    --drive W            top hinge speed, rad/s (default 2; 0: no drive)
-    --report N           substeps between report lines (default 100000)
-    --help               this text";
 
 const LINKS: usize = 10;
 const LENGTH: Real = 0.2;
 const MASS: Real = 0.5;
 const G: Real = 9.81;
 
+/// one million substeps of a driven 10-link chain with stops, locks and friction
+#[derive(clap::Parser)]
 struct Opts {
+    /// Substeps to run
+    #[arg(long = "substeps-total", value_name = "N", value_parser = common::count, default_value = "1000000")]
     total: usize,
+    /// Substeps per step
+    #[arg(long, value_name = "N", value_parser = common::count, default_value = "4")]
     substeps: usize,
+    /// Time step, s (a/b accepted: 1/60)
+    #[arg(long, value_name = "S", value_parser = common::real, default_value = "1/60")]
     dt: Real,
+    /// Top hinge speed, rad/s (0: no drive)
+    #[arg(long, value_name = "W", value_parser = common::any_real, default_value = "2")]
     drive: Real,
+    /// Substeps between report lines
+    #[arg(long, value_name = "N", value_parser = common::count, default_value = "100000")]
     report: usize,
 }
 
 fn main() -> ExitCode {
-    common::main("long_run", HELP, parse, run)
-}
-
-fn parse(a: &mut Args) -> Result<Opts, String> {
-    Ok(Opts {
-        total: a.count("substeps-total", 1_000_000, 1)?,
-        substeps: a.count("substeps", 4, 1)?,
-        dt: a.real("dt", 1.0 / 60.0)?,
-        drive: a.get("drive", 2.0)?,
-        report: a.count("report", 100_000, 1)?,
-    })
+    common::main("long_run", common::parse("long_run", &[]), run)
 }
 
 /// Resident set size of this process (kB), from `/proc/self/status` (0 where unavailable).

@@ -39,60 +39,51 @@ mod common;
 
 use std::process::ExitCode;
 
-use common::{Args, Csv, RunResult};
+use common::{Csv, RunResult};
 use rapier3d_mpc184::math::rapier::prelude::{MassProperties, RigidBodyBuilder};
 use rapier3d_mpc184::prelude::*;
 use rapier3d_mpc184::studies::scenes::G;
-
-const HELP: &str =
-    "screw_jack: a vertical screw joint with thread friction, raised and lowered by a moment
-
-OPTIONS:
-    --mu MU       thread friction coefficient (default 0.1)
-    --pitch P     screw pitch, m per radian (default 0.005 / (2 pi): a 5 mm lead)
-    --radius R    mean thread radius, m (default 0.015)
-    --mass M      nut mass carrying the load W = M g, kg (default 50)
-    --secs S      length of each run from rest (default 1)
-    --iters N     bisection steps per search (default 40)
-    --out DIR     CSV directory (default out/screw_jack)
-    --help        this text";
 
 /// Nut inertia about every axis (kg m^2).
 const NUT_INERTIA: Real = 0.05;
 /// Motion threshold of a run (m).
 const MOVED: Real = 1e-9;
 
+/// a vertical screw joint with thread friction, raised and lowered by a moment
+#[derive(clap::Parser)]
 struct Opts {
+    /// Thread friction coefficient
+    #[arg(long, value_name = "MU", value_parser = common::real, default_value = "0.1")]
     mu: Real,
+    /// Screw pitch, m per radian (a 5 mm lead)
+    #[arg(long, value_name = "P", value_parser = common::real, default_value = "0.005/6.283185307179586")]
     pitch: Real,
+    /// Mean thread radius, m
+    #[arg(long, value_name = "R", value_parser = common::real, default_value = "0.015")]
     radius: Real,
+    /// Nut mass carrying the load W = M g, kg
+    #[arg(long, value_name = "M", value_parser = common::real, default_value = "50")]
     mass: Real,
+    /// Length of each run from rest, s
+    #[arg(long, value_name = "S", value_parser = common::real, default_value = "1")]
     secs: Real,
+    /// Bisection steps per search
+    #[arg(long, value_name = "N", value_parser = common::count, default_value = "40")]
     iters: usize,
+    /// CSV directory
+    #[arg(long, value_name = "DIR")]
     out: std::path::PathBuf,
 }
 
 fn main() -> ExitCode {
-    common::main("screw_jack", HELP, parse, run)
-}
-
-fn parse(a: &mut Args) -> Result<Opts, String> {
-    let o = Opts {
-        mu: a.real("mu", 0.1)?,
-        pitch: a.real("pitch", 0.005 / (2.0 * std::f64::consts::PI as Real))?,
-        radius: a.real("radius", 0.015)?,
-        mass: a.real("mass", 50.0)?,
-        secs: a.real("secs", 1.0)?,
-        iters: a.count("iters", 40, 1)?,
-        out: a.out_dir(),
-    };
+    let o: Opts = common::parse("screw_jack", &[]);
     if o.mu * o.pitch / o.radius >= 1.0 {
-        return Err(format!(
+        common::usage_error(&format!(
             "mu tan(l) = {} must be below 1 (the raise formula has no finite value)",
             o.mu * o.pitch / o.radius
         ));
     }
-    Ok(o)
+    common::main("screw_jack", o, run)
 }
 
 /// The end of one run: the nut's joint output.

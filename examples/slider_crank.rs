@@ -28,22 +28,9 @@ mod common;
 use std::process::ExitCode;
 use std::time::Instant;
 
-use common::{Args, Csv, RunResult};
+use common::{Csv, RunResult};
 use rapier3d_mpc184::prelude::*;
 use rapier3d_mpc184::studies::benchmarks::{self, RodSliderJoint};
-
-const HELP: &str = "slider_crank: the IFToMM spatial slider-crank, free and with a driven crank
-
-OPTIONS:
-    --mode M             both (default), free or driven
-    --rate RAD_S         crank drive rate in driven mode (default 6, the initial rate)
-    --rod-slider J       universal (default, the benchmark) or spherical
-    --backend NAME       lagrange (default), rapier-impulse, rapier-multibody or all
-    --dt S               time step (default 1/60; a/b accepted)
-    --substeps N         substeps per step (default 4)
-    --secs S             simulated time (default 5)
-    --out DIR            CSV directory (default out/slider_crank)
-    --help               this text";
 
 struct Opts {
     modes: Vec<bool>,
@@ -56,37 +43,57 @@ struct Opts {
     out: std::path::PathBuf,
 }
 
-fn main() -> ExitCode {
-    common::main("slider_crank", HELP, parse, run)
+/// the IFToMM spatial slider-crank, free and with a driven crank
+#[derive(clap::Parser)]
+struct Cli {
+    /// The crank free, driven, or both in turn
+    #[arg(long, value_enum, default_value = "both")]
+    mode: Mode,
+    /// Crank drive rate in driven mode, rad/s (the initial rate)
+    #[arg(long, value_name = "RAD_S", value_parser = common::any_real, default_value = "6")]
+    rate: Real,
+    /// The rod-slider joint: universal (the benchmark) or spherical
+    #[arg(long, value_enum, default_value = "universal")]
+    rod_slider: RodSlider,
+    #[command(flatten)]
+    run: common::RunArgs,
 }
 
-fn parse(a: &mut Args) -> Result<Opts, String> {
-    // `true` = driven.
-    let modes = match a.get("mode", "both".to_string())?.as_str() {
-        "both" => vec![false, true],
-        "free" => vec![false],
-        "driven" => vec![true],
-        m => return Err(format!("--mode `{m}`: both, free or driven")),
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum Mode {
+    Both,
+    Free,
+    Driven,
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum RodSlider {
+    Universal,
+    Spherical,
+}
+
+fn main() -> ExitCode {
+    let cli: Cli = common::parse("slider_crank", &[("backend", "lagrange"), ("secs", "5")]);
+    let s = cli.run.sweep();
+    let o = Opts {
+        // `true` = driven.
+        modes: match cli.mode {
+            Mode::Both => vec![false, true],
+            Mode::Free => vec![false],
+            Mode::Driven => vec![true],
+        },
+        rate: cli.rate,
+        rod_slider: match cli.rod_slider {
+            RodSlider::Universal => RodSliderJoint::Universal,
+            RodSlider::Spherical => RodSliderJoint::Spherical,
+        },
+        backends: s.backends,
+        dt: s.dt,
+        substeps: s.substeps,
+        secs: s.secs,
+        out: s.out,
     };
-    let rate: Real = a.get("rate", 6.0)?;
-    if !rate.is_finite() {
-        return Err("--rate must be finite".into());
-    }
-    let rod_slider = match a.get("rod-slider", "universal".to_string())?.as_str() {
-        "universal" => RodSliderJoint::Universal,
-        "spherical" => RodSliderJoint::Spherical,
-        j => return Err(format!("--rod-slider `{j}`: universal or spherical")),
-    };
-    Ok(Opts {
-        modes,
-        rate,
-        rod_slider,
-        backends: a.backends("lagrange")?,
-        dt: a.real("dt", 1.0 / 60.0)?,
-        substeps: a.count("substeps", 4, 1)?,
-        secs: a.real("secs", 5.0)?,
-        out: a.out_dir(),
-    })
+    common::main("slider_crank", o, run)
 }
 
 /// The exact slider position for crank angle `phi` (rad about +X from straight up).

@@ -2,7 +2,7 @@
 //! directory exits 0 and writes runs.csv with the documented header, every chart (the three
 //! stability maps included) as a non-empty PNG (with the PNG signature) and SVG (with text drawn
 //! through the bundled font), the two map CSVs, and summary.md; on the pendulum the Lagrange backend is within IFToMM's low precision (1e-1 m) at
-//! dt = 1/60 with 2 substeps. A bad flag exits 2.
+//! dt = 1/60 with 2 substeps. A bad flag exits 64 (clap's usage error).
 //!
 //! Needs the `charts` feature (`cargo test --release --features charts --test chart_smoke`): CI
 //! runs the default features only, so this test is not part of CI.
@@ -94,5 +94,5 @@ fn quick_sweep_writes_every_chart() {
         .arg("--bogus")
         .output()
         .expect("chart runs");
-    assert_eq!(bad.status.code(), Some(2));
+    assert_eq!(bad.status.code(), Some(64));
 }

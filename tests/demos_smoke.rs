@@ -1,7 +1,8 @@
 //! Smoke test of the headless demos: each binary runs briefly (tiny `--secs`, CSV into a
 //! temporary directory), exits 0, writes its CSV with the documented header and at least two
-//! rows, and one figure of the CSV is checked against the physics of its scene. A bad flag exits
-//! 2 with the help text.
+//! rows, and one figure of the CSV is checked against the physics of its scene. Every example
+//! parses its flags with clap: an unknown flag or a bad value exits 64 with clap's usage error,
+//! `--key=value` works as `--key value`.
 #![cfg(feature = "f64")]
 
 mod common;
@@ -222,16 +223,67 @@ fn ecs_demo_despawns_a_joint_and_frees_the_bead() {
     );
 }
 
+/// Every example but `chart` (its own smoke test, with the `charts` feature): one clap
+/// command line for all.
+const EXAMPLES: [&str; 12] = [
+    "a01_long",
+    "bricard",
+    "chain",
+    "door_hinge",
+    "double_pendulum",
+    "ecs_demo",
+    "four_bar",
+    "joint_bench",
+    "long_run",
+    "pendulum_rapier",
+    "screw_jack",
+    "slider_crank",
+];
+
 #[test]
-fn a_bad_flag_exits_2_with_the_help() {
+fn an_unknown_flag_is_claps_usage_error_exit_64_in_every_example() {
+    for name in EXAMPLES {
+        // An unknown flag must stop before any run (joint_bench would run 3 minutes).
+        let out = Command::new(common::example(name))
+            .arg("--bogus")
+            .output()
+            .expect("example runs");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(64), "{name}: {err}");
+        assert!(
+            err.contains("unexpected argument '--bogus'") && err.contains("Usage:"),
+            "{name}: {err}"
+        );
+        // `--help` prints clap's help and exits 0.
+        let help = Command::new(common::example(name))
+            .arg("--help")
+            .output()
+            .expect("example runs");
+        assert_eq!(help.status.code(), Some(0), "{name} --help");
+        assert!(String::from_utf8_lossy(&help.stdout).contains(&format!("Usage: {name}")));
+    }
+}
+
+#[test]
+fn a_bad_value_names_the_flag_and_both_spellings_work() {
     let out = Command::new(common::example("chain"))
         .args(["--n", "many"])
         .output()
-        .expect("demo binary runs");
-    assert_eq!(out.status.code(), Some(2));
+        .expect("example runs");
+    assert_eq!(out.status.code(), Some(64));
     let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("invalid value 'many' for '--n <N>'"), "{err}");
+    // `--key=value` is the same as `--key value`: a 0.05 s chain of 2 links runs (exit 0).
+    let dir = temp_out("equals");
+    let out = Command::new(common::example("chain"))
+        .args(["--n=2", "--backend=lagrange", "--secs=0.05", "--dt=1/60"])
+        .arg(format!("--out={}", dir.display()))
+        .output()
+        .expect("example runs");
     assert!(
-        err.contains("--n `many`") && err.contains("OPTIONS:"),
-        "{err}"
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
     );
+    assert!(dir.join("chain_lagrange.csv").exists());
 }

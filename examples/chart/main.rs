@@ -72,6 +72,9 @@ use rapier3d_mpc184::prelude::*;
 use rapier3d_mpc184::studies::benchmarks::{self, Benchmark, Probe, RodSliderJoint};
 use rapier3d_mpc184::studies::scenes::{self, G};
 
+#[path = "../common/mod.rs"]
+mod common;
+
 mod andrews;
 mod catalogue;
 mod config;
@@ -94,21 +97,29 @@ use summary::*;
 
 type DynResult<T> = Result<T, Box<dyn Error>>;
 
-const HELP: &str = "chart: the work-precision study (error against CPU time) of every backend
-
-Runs IFToMM A01 (pendulum), A02 (parallelogram four-bar), A04 (Bricard), a 100-link chain
-with a 1:1000 end mass and the spatial slider-crank on Lagrange, penalty (k = 1e4, 1e6, 1e8),
-Rapier impulse and Rapier multibody joints over dt = 1/30..1/960 and 1, 2, 4, 8 substeps; writes
-runs.csv, work-precision charts, stability maps (chain end-mass ratio x substeps, penalty
-stiffness x dt, four-bar start distance from its singular pose x dt), a cost-against-N chart
-(PNG and SVG) and summary.md. The full sweep takes about 10 minutes on 2 cores.
-
-OPTIONS:
-    --quick      a short sweep (2 step sizes, 2 substep counts, 1 s scenes, 20-link chain)
-    --maps       only the three stability maps (their charts, CSVs and summary sections)
-    --andrews    only IFToMM A03, Andrews' squeezer (wp_a03_andrews, andrews.csv, andrews.md)
-    --out DIR    output directory (default docs/charts)
-    --help       this text";
+/// the work-precision study (error against CPU time) of every backend
+///
+/// Runs IFToMM A01 (pendulum), A02 (parallelogram four-bar), A04 (Bricard), a 100-link chain
+/// with a 1:1000 end mass and the spatial slider-crank on Lagrange, penalty (k = 1e4, 1e6, 1e8),
+/// Rapier impulse and Rapier multibody joints over dt = 1/30..1/960 and 1, 2, 4, 8 substeps; writes
+/// runs.csv, work-precision charts, stability maps (chain end-mass ratio x substeps, penalty
+/// stiffness x dt, four-bar start distance from its singular pose x dt), a cost-against-N chart
+/// (PNG and SVG) and summary.md. The full sweep takes about 10 minutes on 2 cores.
+#[derive(clap::Parser)]
+struct Cli {
+    /// A short sweep (2 step sizes, 2 substep counts, 1 s scenes, 20-link chain)
+    #[arg(long)]
+    quick: bool,
+    /// Only the three stability maps (their charts, CSVs and summary sections)
+    #[arg(long)]
+    maps: bool,
+    /// Only IFToMM A03, Andrews' squeezer (`wp_a03_andrews`, `andrews.csv`, `andrews.md`)
+    #[arg(long)]
+    andrews: bool,
+    /// Output directory
+    #[arg(long, value_name = "DIR", default_value = "docs/charts")]
+    out: PathBuf,
+}
 
 /// Bundled font (`DejaVu` Sans, Bitstream Vera licence: `assets/fonts/DejaVuSans-LICENSE.txt`):
 /// plotters renders text with `ab_glyph` from these bytes, no system font needed.
@@ -118,27 +129,12 @@ static FONT: &[u8] = include_bytes!("../../assets/fonts/DejaVuSans.ttf");
 const OUTPUT_STEP: f64 = 1.0 / 30.0;
 
 fn main() -> ExitCode {
-    let mut quick = false;
-    let mut maps = false;
-    let mut andrews = false;
-    let mut out = PathBuf::from("docs/charts");
-    let mut args = std::env::args().skip(1);
-    while let Some(a) = args.next() {
-        match a.as_str() {
-            "--help" | "-h" => {
-                println!("{HELP}");
-                return ExitCode::SUCCESS;
-            }
-            "--quick" => quick = true,
-            "--maps" => maps = true,
-            "--andrews" => andrews = true,
-            "--out" => match args.next() {
-                Some(d) => out = PathBuf::from(d),
-                None => return usage("--out needs a value"),
-            },
-            _ => return usage(&format!("unexpected argument `{a}`")),
-        }
-    }
+    let Cli {
+        quick,
+        maps,
+        andrews,
+        out,
+    } = common::parse("chart", &[]);
     let cfg = Config {
         maps_only: maps,
         ..Config::new(quick)
@@ -155,11 +151,6 @@ fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
-}
-
-fn usage(msg: &str) -> ExitCode {
-    eprintln!("chart: {msg}\n\n{HELP}");
-    ExitCode::from(2)
 }
 
 /// Progress reporting: `\r` on a terminal, plain lines otherwise.

@@ -1,16 +1,14 @@
-//! Shared helpers of the headless demos: `--key value` argument parsing with std only, the
+//! Shared helpers of the examples: the command line (clap, one set of flag names), the
 //! backend list, CSV files, energy-drift windows, SIGINT/SIGTERM for the long runs and the
-//! exit-code convention (0 ok, 1 the run failed, 2 bad command line: the error and the help
-//! are printed; 130 / 143 interrupted by SIGINT / SIGTERM after the summary of what ran).
+//! exit-code convention (0 ok, 1 the run failed, 64 a usage error with clap's message, 130 / 143
+//! interrupted by SIGINT / SIGTERM after the summary of what ran).
 #![allow(dead_code, reason = "each demo uses a subset of the helpers")]
 
-use std::collections::BTreeMap;
 use std::error::Error;
 use std::fmt::Display;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use std::str::FromStr;
 
 use rapier3d_mpc184::prelude::{Backend, Real};
 
@@ -91,155 +89,142 @@ pub struct Sweep {
     pub out: PathBuf,
 }
 
-/// Parsed `--key value` pairs; each getter takes its key out, [`Args::finish`] rejects the rest.
-pub struct Args {
-    demo: &'static str,
-    values: BTreeMap<String, String>,
+/// The flags every scene-running example shares, with one name each across the examples
+/// (`--backend`, `--dt`, `--substeps`, `--secs`, `--out`). Each example sets its own defaults
+/// through [`parse`]'s `defaults` (shown by `--help`); `--out` is `out/<example>`.
+#[derive(clap::Args, Debug)]
+pub struct RunArgs {
+    /// Backend: lagrange, rapier-impulse, rapier-multibody or all
+    #[arg(long, value_name = "NAME", value_parser = backends, default_value = "all")]
+    pub backend: Backends,
+    /// Time step, s (a/b accepted: 1/60)
+    #[arg(long, value_name = "S", value_parser = real, default_value = "1/60")]
+    pub dt: Real,
+    /// Substeps per step
+    #[arg(long, value_name = "N", value_parser = count, default_value = "4")]
+    pub substeps: usize,
+    /// Simulated time, s
+    #[arg(long, value_name = "S", value_parser = real, default_value = "10")]
+    pub secs: Real,
+    /// CSV directory
+    #[arg(long, value_name = "DIR")]
+    pub out: PathBuf,
 }
 
-impl Args {
-    /// Reads `--key value` pairs. `Ok(None)` for `--help` / `-h`.
-    fn parse(demo: &'static str, raw: Vec<String>) -> Result<Option<Self>, String> {
-        let mut values = BTreeMap::new();
-        let mut it = raw.into_iter();
-        while let Some(a) = it.next() {
-            if a == "--help" || a == "-h" {
-                return Ok(None);
-            }
-            let Some(key) = a.strip_prefix("--").filter(|k| !k.is_empty()) else {
-                return Err(format!("unexpected argument `{a}`"));
-            };
-            let value = it.next().ok_or_else(|| format!("--{key} needs a value"))?;
-            if values.insert(key.to_string(), value).is_some() {
-                return Err(format!("--{key} given twice"));
-            }
+impl RunArgs {
+    /// The sweep.
+    pub fn sweep(self) -> Sweep {
+        Sweep {
+            backends: self.backend.0,
+            dt: self.dt,
+            substeps: self.substeps,
+            secs: self.secs,
+            out: self.out,
         }
-        Ok(Some(Self { demo, values }))
     }
+}
 
-    /// The value of `--key` parsed as `T`, or `default`.
-    pub fn get<T: FromStr>(&mut self, key: &str, default: T) -> Result<T, String>
-    where
-        T::Err: Display,
+/// The backends `--backend` names (`all` for every backend).
+#[derive(Clone, Debug)]
+pub struct Backends(pub Vec<Backend>);
+
+/// `--backend NAME`: a backend's name or `all`.
+pub fn backends(name: &str) -> Result<Backends, String> {
+    let all = [
+        Backend::Lagrange,
+        Backend::RapierImpulse,
+        Backend::RapierMultibody,
+    ];
+    if name == "all" {
+        return Ok(Backends(all.to_vec()));
+    }
+    all.into_iter()
+        .find(|b| b.name() == name)
+        .map(|b| Backends(vec![b]))
+        .ok_or_else(|| "lagrange, rapier-impulse, rapier-multibody or all".to_string())
+}
+
+/// A finite real, `a/b` accepted (`--dt 1/60`).
+pub fn any_real(v: &str) -> Result<Real, String> {
+    let x: Real = match v.split_once('/') {
+        Some((a, b)) => {
+            let a: Real = a.trim().parse().map_err(|e| format!("{e}"))?;
+            let b: Real = b.trim().parse().map_err(|e| format!("{e}"))?;
+            a / b
+        }
+        None => v.trim().parse().map_err(|e| format!("{e}"))?,
+    };
+    if x.is_finite() {
+        Ok(x)
+    } else {
+        Err("must be finite".to_string())
+    }
+}
+
+/// A positive finite real, `a/b` accepted.
+pub fn real(v: &str) -> Result<Real, String> {
+    match any_real(v)? {
+        x if x > 0.0 => Ok(x),
+        _ => Err("must be positive".to_string()),
+    }
+}
+
+/// A count of at least 1.
+pub fn count(v: &str) -> Result<usize, String> {
+    match v.parse::<usize>() {
+        Ok(n) if n >= 1 => Ok(n),
+        Ok(_) => Err("must be at least 1".to_string()),
+        Err(e) => Err(e.to_string()),
+    }
+}
+
+/// Exit status of a usage error, as `mpc184` (`EX_USAGE`): apart from 1, a run that failed.
+pub const USAGE: u8 = 64;
+
+/// Parses the command line into `C` with clap, after setting the defaults `(flag id, value)`
+/// that differ from [`RunArgs`]' (and `--out`'s to `out/<demo>`). `--key value` and `--key=value` both work; `--help` prints
+/// the help (exit 0); an unknown flag or a bad value prints clap's usage error (exit 64).
+pub fn parse<C: clap::Parser>(demo: &'static str, defaults: &[(&'static str, &'static str)]) -> C {
+    let mut cmd = C::command().name(demo);
+    if cmd.get_arguments().any(|a| a.get_id() == "out") {
+        let out: &'static str = Box::leak(format!("out/{demo}").into_boxed_str());
+        cmd = cmd.mut_arg("out", |a| a.default_value(out));
+    }
+    for &(id, value) in defaults {
+        cmd = cmd.mut_arg(id, |a| a.default_value(value));
+    }
+    match cmd
+        .try_get_matches()
+        .and_then(|mut m| C::from_arg_matches_mut(&mut m))
     {
-        match self.values.remove(key) {
-            None => Ok(default),
-            Some(v) => v.parse().map_err(|e| format!("--{key} `{v}`: {e}")),
-        }
-    }
-
-    /// A positive finite real, `a/b` accepted (`--dt 1/60`).
-    pub fn real(&mut self, key: &str, default: Real) -> Result<Real, String> {
-        let Some(v) = self.values.remove(key) else {
-            return Ok(default);
-        };
-        let bad = |e: &dyn Display| format!("--{key} `{v}`: {e}");
-        let x: Real = match v.split_once('/') {
-            Some((a, b)) => {
-                let a: Real = a.trim().parse().map_err(|e| bad(&e))?;
-                let b: Real = b.trim().parse().map_err(|e| bad(&e))?;
-                a / b
-            }
-            None => v.parse().map_err(|e| bad(&e))?,
-        };
-        if x.is_finite() && x > 0.0 {
-            Ok(x)
-        } else {
-            Err(bad(&"must be finite and positive"))
-        }
-    }
-
-    /// A count of at least `min`.
-    pub fn count(&mut self, key: &str, default: usize, min: usize) -> Result<usize, String> {
-        let n = self.get(key, default)?;
-        if n < min {
-            return Err(format!("--{key} {n}: must be at least {min}"));
-        }
-        Ok(n)
-    }
-
-    /// `--backend NAME` (`all` for every backend).
-    pub fn backends(&mut self, default: &str) -> Result<Vec<Backend>, String> {
-        let v = self.values.remove("backend");
-        let name = v.as_deref().unwrap_or(default);
-        let all = [
-            Backend::Lagrange,
-            Backend::RapierImpulse,
-            Backend::RapierMultibody,
-        ];
-        if name == "all" {
-            return Ok(all.to_vec());
-        }
-        all.into_iter()
-            .find(|b| b.name() == name)
-            .map(|b| vec![b])
-            .ok_or_else(|| {
-                format!("--backend `{name}`: lagrange, rapier-impulse, rapier-multibody or all")
-            })
-    }
-
-    /// `--out DIR`, default `out/<demo>`.
-    pub fn out_dir(&mut self) -> PathBuf {
-        self.values
-            .remove("out")
-            .map_or_else(|| Path::new("out").join(self.demo), PathBuf::from)
-    }
-
-    /// The common sweep options: `--backend` (default `backend`), `--dt` (default `dt`),
-    /// `--substeps` (default 4), `--secs` (default `secs`), `--out`.
-    pub fn sweep(&mut self, backend: &str, dt: Real, secs: Real) -> Result<Sweep, String> {
-        Ok(Sweep {
-            backends: self.backends(backend)?,
-            dt: self.real("dt", dt)?,
-            substeps: self.count("substeps", 4, 1)?,
-            secs: self.real("secs", secs)?,
-            out: self.out_dir(),
-        })
-    }
-
-    /// Rejects the options no getter took.
-    fn finish(self) -> Result<(), String> {
-        match self.values.keys().next() {
-            Some(k) => Err(format!("unknown option --{k}")),
-            None => Ok(()),
+        Ok(c) => c,
+        Err(e) => {
+            let status = if e.use_stderr() { USAGE } else { 0 };
+            let _ = e.print();
+            std::process::exit(i32::from(status));
         }
     }
 }
 
-/// Runs a demo: `--help` prints `help` (exit 0); a bad command line prints the error and `help`
-/// (exit 2); a failed run prints its error (exit 1).
-pub fn main<O>(
-    demo: &'static str,
-    help: &str,
-    parse: impl FnOnce(&mut Args) -> Result<O, String>,
-    run: impl FnOnce(O) -> RunResult,
-) -> ExitCode {
-    let parsed = Args::parse(demo, std::env::args().skip(1).collect()).and_then(|a| match a {
-        None => Ok(None),
-        Some(mut a) => {
-            let o = parse(&mut a)?;
-            a.finish().map(|()| Some(o))
-        }
-    });
-    match parsed {
-        Ok(None) => {
-            println!("{help}");
-            ExitCode::SUCCESS
-        }
+/// A usage error found after parsing (values that only together are wrong): printed as clap
+/// prints its own, exit 64.
+pub fn usage_error(message: &str) -> ! {
+    eprintln!("error: {message}\n\nFor more information, try '--help'.");
+    std::process::exit(i32::from(USAGE))
+}
+
+/// Runs a demo on its parsed options: a failed run prints its error (exit 1; 130 / 143 when
+/// a signal stopped it).
+pub fn main<O>(demo: &'static str, opts: O, run: impl FnOnce(O) -> RunResult) -> ExitCode {
+    match run(opts) {
+        Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("{demo}: {e}\n\n{help}");
-            ExitCode::from(2)
-        }
-        Ok(Some(o)) => match run(o) {
-            Ok(()) => ExitCode::SUCCESS,
-            Err(e) => {
-                eprintln!("{demo}: {e}");
-                match e.downcast_ref::<Interrupted>() {
-                    Some(i) => ExitCode::from(i.status),
-                    None => ExitCode::FAILURE,
-                }
+            eprintln!("{demo}: {e}");
+            match e.downcast_ref::<Interrupted>() {
+                Some(i) => ExitCode::from(i.status),
+                None => ExitCode::FAILURE,
             }
-        },
+        }
     }
 }
 

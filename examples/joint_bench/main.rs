@@ -11,6 +11,8 @@
 //! scenes ([`cost`]); the last line printed is `ratio_vs_rapier_max=<x>`, the largest
 //! Lagrange / Rapier-alone ratio over those scenes. `--cost` prints only that table.
 
+#[path = "../common/mod.rs"]
+mod common;
 mod cost;
 
 use std::time::Instant;
@@ -25,20 +27,27 @@ const BACKENDS: [Backend; 3] = [
     Backend::RapierMultibody,
 ];
 
+/// Lagrange backend vs Rapier impulse and multibody joints, and Rapier alone
+#[derive(clap::Parser)]
+struct Cli {
+    /// Skip the 1000-link chains of the accuracy table and the multibody cost column
+    #[arg(long)]
+    quick: bool,
+    /// Only the section on inactive stops and sleeping islands
+    #[arg(long)]
+    model: bool,
+    /// Only the cost table (every backend beside Rapier alone)
+    #[arg(long)]
+    cost: bool,
+}
+
 fn main() {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    if args.iter().any(|a| a == "--help" || a == "-h") {
-        println!(
-            "joint_bench: Lagrange backend vs Rapier impulse and multibody joints\n\nOPTIONS:\n    --quick   skip the 1000-link chains of the accuracy table and the multibody cost column\n    --model   only the section on inactive stops and sleeping islands\n    --cost    only the cost table (every backend beside Rapier alone)\n    --help    this text"
-        );
-        return;
-    }
-    let quick = args.iter().any(|a| a == "--quick");
-    if args.iter().any(|a| a == "--model") {
+    let Cli { quick, model, cost } = common::parse("joint_bench", &[]);
+    if model {
         model_cost();
         return;
     }
-    if args.iter().any(|a| a == "--cost") {
+    if cost {
         let worst = cost::cost_table(quick);
         println!("ratio_vs_rapier_max={worst:.2}");
         return;
