@@ -33,7 +33,7 @@ struct Opts {
     out: std::path::PathBuf,
 }
 
-/// a hanging revolute chain with a heavy end bead
+/// A hanging revolute chain with a heavy end bead
 #[derive(clap::Parser)]
 struct Cli {
     /// Links

@@ -43,7 +43,7 @@ const THICKNESS: Real = 0.04;
 /// The wall stop (rad).
 const OPEN_STOP_DEG: Real = 100.0;
 
-/// a door on a tilted hinge with friction, a stop and an optional latch
+/// A door on a tilted hinge with friction, a stop and an optional latch
 #[derive(clap::Parser)]
 struct Opts {
     /// Hinge friction coefficient

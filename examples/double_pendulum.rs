@@ -41,7 +41,7 @@ const L: Real = 1.0;
 
 type Opts = common::Sweep;
 
-/// two 1 m links with 1 kg beads released horizontally (chaotic)
+/// Two 1 m links with 1 kg beads released horizontally (chaotic)
 #[derive(clap::Parser)]
 struct Cli {
     #[command(flatten)]

@@ -27,7 +27,7 @@ use rapier3d_mpc184::math::PI;
 use rapier3d_mpc184::prelude::*;
 use rapier3d_mpc184::studies::scenes::G;
 
-/// a pendulum and a two-link chain as bevy_ecs entities (Mpc184Plugin)
+/// A pendulum and a two-link chain as `bevy_ecs` entities (`Mpc184Plugin`)
 #[derive(clap::Parser)]
 struct Cli {
     /// Frames of 1/60 s

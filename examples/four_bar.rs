@@ -39,7 +39,7 @@ struct Turn {
     gap: Real,
 }
 
-/// the parallelogram four-bar (IFToMM A02) through its singular positions
+/// The parallelogram four-bar (IFToMM A02) through its singular positions
 #[derive(clap::Parser)]
 struct Cli {
     #[command(flatten)]

@@ -34,7 +34,7 @@ const LENGTH: Real = 0.2;
 const MASS: Real = 0.5;
 const G: Real = 9.81;
 
-/// one million substeps of a driven 10-link chain with stops, locks and friction
+/// One million substeps of a driven 10-link chain with stops, locks and friction
 #[derive(clap::Parser)]
 struct Opts {
     /// Substeps to run

@@ -49,7 +49,7 @@ const NUT_INERTIA: Real = 0.05;
 /// Motion threshold of a run (m).
 const MOVED: Real = 1e-9;
 
-/// a vertical screw joint with thread friction, raised and lowered by a moment
+/// A vertical screw joint with thread friction, raised and lowered by a moment
 #[derive(clap::Parser)]
 struct Opts {
     /// Thread friction coefficient

@@ -43,7 +43,7 @@ struct Opts {
     out: std::path::PathBuf,
 }
 
-/// the IFToMM spatial slider-crank, free and with a driven crank
+/// The IFToMM spatial slider-crank, free and with a driven crank
 #[derive(clap::Parser)]
 struct Cli {
     /// The crank free, driven, or both in turn
