@@ -1,5 +1,6 @@
-//! `bevy_ecs` integration (feature `ecs`, on by default): [`Mpc184Plugin`] for a bare `World` and
-//! `Schedule` (no `bevy_app`).
+//! `bevy_ecs` integration (feature `ecs`): [`Mpc184Plugin`] for a bare `World` and `Schedule`,
+//! and (feature `bevy`) [`Mpc184PhysicsPlugin`], a `bevy_app::Plugin` with `Transform` sync and a
+//! choice of schedule and time step.
 //!
 //! | component | written by | meaning |
 //! |---|---|---|
@@ -34,6 +35,9 @@
 //! assert!(out.0.rotation.z < 0.0);
 //! ```
 
+#[cfg(feature = "bevy")]
+mod app;
+
 use std::collections::HashMap;
 
 use bevy_ecs::prelude::*;
@@ -43,6 +47,9 @@ use crate::joint::Mpc184Joint;
 use crate::math::rapier::dynamics::{MassProperties, RigidBodyBuilder, RigidBodyHandle};
 use crate::math::{Real, Rotation, Vector};
 use crate::world::{JointOutput, Mpc184World, WorldSettings};
+
+#[cfg(feature = "bevy")]
+pub use app::{Mpc184PhysicsPlugin, Mpc184Timestep};
 
 /// The simulation as a resource.
 #[derive(Resource)]
@@ -170,14 +177,24 @@ impl Default for Mpc184Plugin {
 impl Mpc184Plugin {
     /// Inserts [`Mpc184Sim`] into `world` and the systems into `schedule`.
     pub fn add_to(&self, world: &mut World, schedule: &mut Schedule) {
+        world.insert_resource(self.sim());
+        Self::add_systems(schedule);
+    }
+
+    /// The simulation resource these settings describe.
+    fn sim(&self) -> Mpc184Sim {
         let mut sim = Mpc184World::new(self.settings);
         sim.physics.gravity = self.gravity;
-        world.insert_resource(Mpc184Sim {
+        Mpc184Sim {
             world: sim,
             last_error: None,
             bodies: HashMap::new(),
             joints: HashMap::new(),
-        });
+        }
+    }
+
+    /// The sets, chained, and the systems in them.
+    fn add_systems(schedule: &mut Schedule) {
         schedule.configure_sets(
             (
                 Mpc184Systems::Sync,

@@ -223,10 +223,39 @@ fn ecs_demo_despawns_a_joint_and_frees_the_bead() {
     );
 }
 
+#[test]
+fn bevy_pendulum_swings_in_a_headless_app() {
+    let out = Command::new(common::example("bevy_pendulum"))
+        .args(["--secs", "0.5"])
+        .output()
+        .expect("example runs");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    // Rows at 0.25 and 0.5 s: t, Transform x y z, theta, dE, |F|, exact.
+    let rows: Vec<Vec<f64>> = text
+        .lines()
+        .skip(1)
+        .map(|l| l.split_whitespace().map(|x| x.parse().unwrap()).collect())
+        .collect();
+    assert_eq!(rows.len(), 2, "{text}");
+    for r in &rows {
+        // The Transform is the bob at 1 m from the hinge (f32 print to 4 decimals: 1e-4).
+        let radius = (r[1] * r[1] + r[2] * r[2] + r[3] * r[3]).sqrt();
+        assert!((radius - 1.0).abs() <= 1e-3, "{r:?}");
+        // Released at 90 deg, it has fallen: theta below 90 deg by 0.25 s (72 deg).
+        assert!(r[4] < 80.0, "{r:?}");
+    }
+}
+
 /// Every example but `chart` (its own smoke test, with the `charts` feature): one clap
 /// command line for all.
-const EXAMPLES: [&str; 12] = [
+const EXAMPLES: [&str; 13] = [
     "a01_long",
+    "bevy_pendulum",
     "bricard",
     "chain",
     "door_hinge",
