@@ -23,6 +23,7 @@ use clap::{Parser, Subcommand, ValueEnum};
 
 mod interrupt;
 mod output;
+mod viewer;
 
 use interrupt::Interrupt;
 use output::{IoFailure, Writers};
@@ -87,6 +88,10 @@ struct RunArgs {
     /// No summary table, no progress.
     #[arg(long)]
     quiet: bool,
+    /// Also write a self-contained HTML view of the run to FILE (3D bodies and joint frames,
+    /// time slider and playback, events, time histories; no network needed).
+    #[arg(long, value_name = "FILE")]
+    html: Option<PathBuf>,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -209,6 +214,8 @@ fn default_job() -> Result<(), Failure> {
         integrator: IntegratorArg::FirstOrder,
         every: 1,
         quiet: false,
+        // The main job's view: open it in a browser.
+        html: Some(default_out(Path::new(DEFAULT_NAME)).join("view.html")),
     };
     let out = default_out(Path::new(DEFAULT_NAME));
     let summary = run(&deck, &args, &out)?;
@@ -378,6 +385,10 @@ fn run(deck: &Deck, args: &RunArgs, out: &Path) -> Result<Summary, Failure> {
     let interrupt = Interrupt::install()
         .map_err(|e| Failure::Io(format!("installing the SIGINT/SIGTERM handlers: {e}")))?;
     let mut w = Writers::create(out, !model.springs.is_empty())?;
+    if args.html.is_some() {
+        let backend = Backend::from(args.backend).name();
+        w.view(viewer::Recorder::new(deck, &model, backend));
+    }
     let total0 = model.world.energy().total;
     w.row(&model, total0)?;
     let started = Instant::now();
@@ -396,6 +407,13 @@ fn run(deck: &Deck, args: &RunArgs, out: &Path) -> Result<Summary, Failure> {
         println!();
     }
     let wall = started.elapsed().as_secs_f64();
+    // The view holds every recorded time up to the run's end, whatever ended it.
+    if let (Some(path), Some(view)) = (&args.html, w.viewer(&model, total0)) {
+        view.write(path)?;
+        if !args.quiet {
+            println!("wrote {}", path.display());
+        }
+    }
     let e = model.world.energy();
     state.summary.balance = (e.total - total0) as f64;
     match ended {

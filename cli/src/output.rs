@@ -11,6 +11,7 @@
 //!   of the last output time written whole to all of them, so the files stay in step, and the
 //!   failure says which time that is.
 
+use crate::viewer::Recorder;
 use std::fs::File;
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -84,6 +85,8 @@ pub struct Writers {
     files: Vec<CsvFile>,
     springs: bool,
     last_time: Option<f64>,
+    /// The HTML view's recording (`--html`), fed at every output time.
+    viewer: Option<Recorder>,
 }
 
 impl Writers {
@@ -107,7 +110,20 @@ impl Writers {
             files,
             springs,
             last_time: None,
+            viewer: None,
         })
+    }
+
+    /// Records every output time for the HTML view too.
+    pub fn view(&mut self, recorder: Recorder) {
+        self.viewer = Some(recorder);
+    }
+
+    /// The HTML view's recording, if any, closed on the model's current (last) state.
+    pub fn viewer(&mut self, m: &DeckModel, total0: Real) -> Option<&Recorder> {
+        let v = self.viewer.as_mut()?;
+        v.close(m, total0);
+        Some(v)
     }
 
     /// The last output time written whole to every file.
@@ -130,7 +146,11 @@ impl Writers {
         if let Some(last) = self.files.last_mut() {
             format_energy(&mut last.rows, m, t, total0);
         }
-        self.commit(t as f64)
+        self.commit(t as f64)?;
+        if let Some(v) = &mut self.viewer {
+            v.record(m, total0);
+        }
+        Ok(())
     }
 
     /// Writes each file's formatted rows, or cuts every file back to the last whole time.
