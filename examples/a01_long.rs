@@ -124,7 +124,12 @@ fn run(integrator: Integrator, rate: u32, seconds: f64, target: f64) -> Result<O
     let (mut max_err, mut reached) = (0.0f64, seconds);
     let mut drift = 0.0;
     let (wall0, cpu0) = (Instant::now(), process_cpu());
+    let bar = common::progress(outputs, "outputs");
+    bar.set_message(format!("{} at 1/{rate} s", integrator.name()));
     for k in 1..=outputs {
+        if k % 300 == 0 {
+            bar.set_position(k as u64);
+        }
         p.world.step()?;
         p.world.step()?;
         for _ in 0..64 {
@@ -146,6 +151,7 @@ fn run(integrator: Integrator, rate: u32, seconds: f64, target: f64) -> Result<O
             break;
         }
     }
+    bar.finish_and_clear();
     // The reference RK4 costs about a tenth of the stepping; it is included.
     let cpu = match (cpu0, process_cpu()) {
         (Some(a), Some(b)) => b - a,

@@ -149,7 +149,11 @@ fn run(o: Opts) -> RunResult {
     let mut status = Ok(());
     let interrupt = common::Interrupt::install();
     let mut stopped = None;
+    let bar = common::progress(steps, "steps");
     for s in 1..=steps {
+        if s % 1000 == 0 {
+            bar.set_position(s as u64);
+        }
         if let Err(e) = world.step() {
             status = Err(e);
             break;
@@ -163,6 +167,7 @@ fn run(o: Opts) -> RunResult {
             break;
         }
     }
+    bar.finish_and_clear();
     let done = (world.time() / o.dt).round() as usize * o.substeps;
     stats.finish(done, started.elapsed().as_secs_f64(), &status);
     if let Some(i) = stopped {

@@ -14,7 +14,6 @@
 //! way finishes, every CSV gets the rows of that time, the summary names it; a second signal
 //! exits at once, the rows already written whole).
 
-use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
@@ -402,10 +401,6 @@ fn run(deck: &Deck, args: &RunArgs, out: &Path) -> Result<Summary, Failure> {
         written: 0,
     };
     let ended = step_all(&mut model, args, &mut w, total0, &interrupt, &mut state);
-    let progress = !args.quiet && std::io::stdout().is_terminal();
-    if progress {
-        println!();
-    }
     let wall = started.elapsed().as_secs_f64();
     // The view holds every recorded time up to the run's end, whatever ended it.
     if let (Some(path), Some(view)) = (&args.html, w.viewer(&model, total0)) {
@@ -474,7 +469,7 @@ fn step_all(
     st: &mut RunState,
 ) -> Result<(), Stop> {
     let total_steps: usize = model.steps.iter().map(|s| s.steps).sum();
-    let progress = !args.quiet && std::io::stdout().is_terminal();
+    let progress = progress_bar(args.quiet, total_steps);
     let every = args.every as usize;
     let crank = model.joints.first().map(|j| j.id);
     for k in 0..model.steps.len() {
@@ -507,17 +502,29 @@ fn step_all(
             if let Some((p, _)) = model.node_ids().last().map(|n| model.node_state(n)) {
                 st.summary.max_slider_x = st.summary.max_slider_x.max(p.x as f64);
             }
-            if progress && (st.done.is_multiple_of(50) || st.done == total_steps) {
-                print!(
-                    "\r  step {}/{total_steps}  t = {:.4} s",
-                    st.done,
-                    model.world.time()
-                );
-                let _ = std::io::stdout().flush();
+            if st.done.is_multiple_of(50) || st.done == total_steps {
+                progress.set_message(format!("{:.4}", model.world.time()));
+                progress.set_position(st.done as u64);
             }
         }
     }
+    progress.finish_and_clear();
     Ok(())
+}
+
+/// The run's progress and ETA on stderr (hidden with `--quiet` and when stderr is not a
+/// terminal).
+fn progress_bar(quiet: bool, total_steps: usize) -> indicatif::ProgressBar {
+    if quiet {
+        return indicatif::ProgressBar::hidden();
+    }
+    let bar = indicatif::ProgressBar::new(total_steps as u64);
+    if let Ok(style) = indicatif::ProgressStyle::with_template(
+        "  {bar:30} step {pos}/{len}  t = {msg} s  {elapsed} elapsed, ETA {eta}",
+    ) {
+        bar.set_style(style);
+    }
+    bar
 }
 
 /// The failure of a step in load step `k`: a divergence names the joint element and the time

@@ -61,7 +61,6 @@
 
 use std::error::Error;
 use std::fmt::Write as _;
-use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
@@ -153,36 +152,25 @@ fn main() -> ExitCode {
     }
 }
 
-/// Progress reporting: `\r` on a terminal, plain lines otherwise.
+/// Progress and ETA on stderr (indicatif; drawn only on a terminal).
 struct Progress {
-    total: usize,
-    done: usize,
-    start: Instant,
-    tty: bool,
+    bar: indicatif::ProgressBar,
 }
 
 impl Progress {
-    fn tick(&mut self, what: &str) {
-        self.done += 1;
-        let line = format!(
-            "[{:>4}/{}] {:>6.0} s  {what}",
-            self.done,
-            self.total,
-            self.start.elapsed().as_secs_f64()
-        );
-        let mut err = std::io::stderr();
-        if self.tty {
-            let _ = write!(err, "\r{line:<100}");
-            let _ = err.flush();
-        } else {
-            let _ = writeln!(err, "{line}");
+    fn new(total: usize) -> Self {
+        Progress {
+            bar: common::progress(total, "runs"),
         }
     }
 
+    fn tick(&mut self, what: &str) {
+        self.bar.set_message(what.to_string());
+        self.bar.inc(1);
+    }
+
     fn finish(&self) {
-        if self.tty {
-            eprintln!();
-        }
+        self.bar.finish_and_clear();
     }
 }
 
@@ -195,16 +183,11 @@ fn run(cfg: &Config, out: &Path) -> DynResult<()> {
     let scal = 5 * cfg.scaling_n.len();
     let pen = (cfg.penalty_ks.len() + 1) * cfg.penalty_rates.len();
     let sing = METHODS.len() * cfg.singular_deltas.len() * cfg.singular_rates.len();
-    let mut progress = Progress {
-        total: if cfg.maps_only {
-            stab + pen + sing
-        } else {
-            SCENES.len() + wp_runs + stab + scal + pen + sing + andrews_count(cfg)
-        },
-        done: 0,
-        start: Instant::now(),
-        tty: std::io::stderr().is_terminal(),
-    };
+    let mut progress = Progress::new(if cfg.maps_only {
+        stab + pen + sing
+    } else {
+        SCENES.len() + wp_runs + stab + scal + pen + sing + andrews_count(cfg)
+    });
     if cfg.maps_only {
         return maps_only(cfg, out, &mut progress);
     }
@@ -226,7 +209,7 @@ fn run(cfg: &Config, out: &Path) -> DynResult<()> {
         scaling.extend(peer_scaling(out)?);
     }
     progress.finish();
-    let wall = progress.start.elapsed().as_secs_f64();
+    let wall = progress.bar.elapsed().as_secs_f64();
 
     let mut files = Vec::new();
     write_csv(&out.join("runs.csv"), &runs)?;
@@ -261,12 +244,7 @@ fn andrews_only(cfg: &Config, out: &Path) -> DynResult<()> {
     plotters::style::register_font("sans-serif", FontStyle::Normal, FONT)
         .map_err(|_| "the bundled font does not load")?;
     std::fs::create_dir_all(out)?;
-    let mut progress = Progress {
-        total: andrews_count(cfg),
-        done: 0,
-        start: Instant::now(),
-        tty: std::io::stderr().is_terminal(),
-    };
+    let mut progress = Progress::new(andrews_count(cfg));
     andrews_study(cfg, out, &mut progress).map(|_| ())
 }
 
@@ -276,7 +254,7 @@ fn maps_only(cfg: &Config, out: &Path, progress: &mut Progress) -> DynResult<()>
     let penalty = penalty_map(cfg, progress);
     let singular = singular_map(cfg, progress);
     progress.finish();
-    let wall = progress.start.elapsed().as_secs_f64();
+    let wall = progress.bar.elapsed().as_secs_f64();
     let mut files = Vec::new();
     Chart::Stability(cfg, &stability).save(out, "stability_chain", (1000, 680), &mut files)?;
     Chart::Penalty(cfg, &penalty).save(out, "stability_penalty", (900, 640), &mut files)?;

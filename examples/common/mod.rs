@@ -228,6 +228,18 @@ pub fn main<O>(demo: &'static str, opts: O, run: impl FnOnce(O) -> RunResult) ->
     }
 }
 
+/// A progress bar with its ETA on stderr (drawn only when stderr is a terminal: logs and
+/// pipes get the results alone), counting `len` items of `unit`.
+pub fn progress(len: usize, unit: &str) -> indicatif::ProgressBar {
+    let bar = indicatif::ProgressBar::new(len as u64);
+    let template =
+        format!("{{bar:30}} {{pos}}/{{len}} {unit}, {{elapsed}} elapsed, ETA {{eta}}  {{msg}}");
+    if let Ok(style) = indicatif::ProgressStyle::with_template(&template) {
+        bar.set_style(style);
+    }
+    bar
+}
+
 /// A CSV file written with std: a header row, then one row of numbers per call of [`Csv::row`].
 pub struct Csv {
     path: PathBuf,
