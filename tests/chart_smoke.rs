@@ -4,8 +4,11 @@
 //! through the bundled font), the two map CSVs, and summary.md; on the pendulum the Lagrange backend is within IFToMM's low precision (1e-1 m) at
 //! dt = 1/60 with 2 substeps. A bad flag exits 64 (clap's usage error).
 //!
-//! Needs the `charts` feature (`cargo test --release --features charts --test chart_smoke`): CI
-//! runs the default features only, so this test is not part of CI.
+//! Every method has its panel on the per-method stability maps, every map's axes are titled, and
+//! the scaling chart's legend gives each method's fitted cost exponent.
+//!
+//! Needs the `charts` feature (`cargo test --release --features charts --test chart_smoke`);
+//! `.ci/run` runs it.
 #![cfg(feature = "charts")]
 
 mod common;
@@ -72,6 +75,7 @@ fn quick_sweep_writes_every_chart() {
         assert!(svg.contains("<svg") && svg.contains("<text"), "{c}.svg");
     }
     assert!(dir.join("summary.md").exists());
+    check_maps(&dir);
     // The two maps' CSVs: header, and every cell classified.
     for map in ["stability_penalty", "stability_singular"] {
         let csv = std::fs::read_to_string(dir.join(format!("{map}.csv"))).expect("map csv");
@@ -95,4 +99,48 @@ fn quick_sweep_writes_every_chart() {
         .output()
         .expect("chart runs");
     assert_eq!(bad.status.code(), Some(64));
+}
+
+/// Every method has its panel on the per-method maps (a caption of its own: plotters writes
+/// each text on its own line), every map's axes are titled, and the scaling chart's legend
+/// gives each method's fitted cost exponent.
+fn check_maps(dir: &std::path::Path) {
+    let methods = [
+        "lagrange",
+        "lagrange-rattle",
+        "penalty-1e4",
+        "penalty-1e6",
+        "penalty-1e8",
+        "rapier-impulse",
+        "rapier-multibody",
+    ];
+    for map in ["stability_chain", "stability_singular"] {
+        let svg = std::fs::read_to_string(dir.join(format!("{map}.svg"))).unwrap();
+        for m in methods {
+            assert!(
+                svg.contains(&format!("\n{m}\n</text>")),
+                "{map}.svg lacks the {m} panel"
+            );
+        }
+    }
+    for (map, titles) in [
+        ("stability_chain", ["substeps", "end-mass ratio"]),
+        ("stability_penalty", ["dt (s)", "penalty stiffness k"]),
+        (
+            "stability_singular",
+            ["dt (s)", "start above the singular pose (rad)"],
+        ),
+        ("scaling_chain", ["links N", "us per step"]),
+    ] {
+        let svg = std::fs::read_to_string(dir.join(format!("{map}.svg"))).unwrap();
+        for t in titles {
+            assert!(svg.contains(t), "{map}.svg lacks the axis title `{t}`");
+        }
+    }
+    // The scaling chart's legend gives each method's fitted cost exponent.
+    let scaling = std::fs::read_to_string(dir.join("scaling_chain.svg")).unwrap();
+    assert!(
+        scaling.contains("(~N^"),
+        "no fitted exponent in the scaling legend"
+    );
 }

@@ -130,6 +130,12 @@ fn check_prints_bodies_joints_and_dof_count() {
 /// with one DOF, so 17 rows are independent and 3 are redundant (the out-of-plane rows of a
 /// planar loop closed by 3-D joints). Bricard: 5 rods (30 DOF), 6 revolutes (30 rows),
 /// Grubler 0, mobility 1, so 1 redundant row. Exact integers: no tolerance.
+/// Counted by hand. Slider-crank: 3 moving bodies (crank, rod, slider: 18 DOFs) against 3
+/// revolutes and 1 translational joint (4 x 5 = 20 rows): Grubler 18 - 20 = -2; it moves with one
+/// DOF (the crank angle), so the rank is 17 and 3 rows are redundant: the planar loop's three
+/// out-of-plane conditions (Z translation, X and Y rotation), which the joints impose twice.
+/// Bricard: 5 rods (30 DOFs), 6 revolutes (30 rows): Grubler 0, one DOF by its geometry, so one
+/// redundant row. Pendulum: 6 - 5 = 1, independent rows.
 #[test]
 fn check_prints_the_mobility_and_the_redundant_rows() {
     for (deck, grubler, mobility, redundant) in [

@@ -215,9 +215,9 @@ fn run(cfg: &Config, out: &Path) -> DynResult<()> {
     write_csv(&out.join("runs.csv"), &runs)?;
     files.push("runs.csv".to_string());
     draw_work_precision(cfg, out, &runs, &mut files)?;
-    Chart::Stability(cfg, &stability).save(out, "stability_chain", (1000, 680), &mut files)?;
+    Chart::Stability(cfg, &stability).save(out, "stability_chain", (1320, 680), &mut files)?;
     Chart::Penalty(cfg, &penalty).save(out, "stability_penalty", (900, 640), &mut files)?;
-    Chart::Singular(cfg, &singular).save(out, "stability_singular", (1100, 720), &mut files)?;
+    Chart::Singular(cfg, &singular).save(out, "stability_singular", (1400, 720), &mut files)?;
     write_map_csv(&out.join("stability_penalty.csv"), &penalty)?;
     write_map_csv(&out.join("stability_singular.csv"), &singular)?;
     files.push("stability_penalty.csv".into());
@@ -256,9 +256,9 @@ fn maps_only(cfg: &Config, out: &Path, progress: &mut Progress) -> DynResult<()>
     progress.finish();
     let wall = progress.bar.elapsed().as_secs_f64();
     let mut files = Vec::new();
-    Chart::Stability(cfg, &stability).save(out, "stability_chain", (1000, 680), &mut files)?;
+    Chart::Stability(cfg, &stability).save(out, "stability_chain", (1320, 680), &mut files)?;
     Chart::Penalty(cfg, &penalty).save(out, "stability_penalty", (900, 640), &mut files)?;
-    Chart::Singular(cfg, &singular).save(out, "stability_singular", (1100, 720), &mut files)?;
+    Chart::Singular(cfg, &singular).save(out, "stability_singular", (1400, 720), &mut files)?;
     write_map_csv(&out.join("stability_penalty.csv"), &penalty)?;
     write_map_csv(&out.join("stability_singular.csv"), &singular)?;
     files.push("stability_penalty.csv".into());

@@ -205,6 +205,7 @@ fn draw_guides<DB: DrawingBackend>(
     [x0, x1, y0, y1]: [f64; 4],
     fail_y: f64,
     energy: bool,
+    points: &[(f64, f64)],
 ) -> DynResult<()>
 where
     DB::ErrorType: 'static,
@@ -220,9 +221,10 @@ where
                     [(x0, level), (x1, level)],
                     gray.stroke_width(1),
                 ))?;
+                let x = label_spot(points, [x0, x1, y0, y1], level * 1.25);
                 chart.draw_series(std::iter::once(Text::new(
                     label,
-                    (x0 * 1.1, level * 1.25),
+                    (x, level * 1.25),
                     ("sans-serif", 13).into_font().color(&gray),
                 )))?;
             }
@@ -244,12 +246,41 @@ where
         [(x0, fail_y / 1.6), (x1, fail_y / 1.6)],
         RGBColor(220, 220, 220).stroke_width(1),
     ))?;
+    let x = label_spot(points, [x0, x1, y0, y1], fail_y * 1.35);
     chart.draw_series(std::iter::once(Text::new(
         "failed runs (x)",
-        (x0 * 1.1, fail_y * 1.35),
+        (x, fail_y * 1.35),
         ("sans-serif", 13).into_font().color(&gray),
     )))?;
     Ok(())
+}
+
+/// Where a guide's label (left-aligned, about 0.25 of the plot wide, hanging 0.04 of its height
+/// below its anchor at height `y`, as plotters draws text) covers the fewest data points and
+/// stays off the legend (upper right): the x of the best of fourteen positions along the axis,
+/// the leftmost among equals.
+fn label_spot(points: &[(f64, f64)], [x0, x1, y0, y1]: [f64; 4], y: f64) -> f64 {
+    let fx = |x: f64| (x / x0).ln() / (x1 / x0).ln();
+    let fy = |v: f64| (v / y0).ln() / (y1 / y0).ln();
+    // A point's dot is about 0.01 of the plot across: margins of that much.
+    let (bottom, top) = (fy(y) - 0.05, fy(y) + 0.01);
+    let cost = |left: f64| {
+        let right = left + 0.27;
+        let covered = points
+            .iter()
+            .filter(|&&(px, py)| {
+                (left - 0.01..right).contains(&fx(px)) && (bottom..top).contains(&fy(py))
+            })
+            .count();
+        // The legend box: the upper right quarter, roughly.
+        let legend = right > 0.74 && top > 0.55;
+        covered + if legend { 1000 } else { 0 }
+    };
+    let best = (0..14)
+        .map(|k| 0.01 + 0.05 * f64::from(k))
+        .min_by_key(|&f| cost(f))
+        .unwrap_or(0.01);
+    x0 * (x1 / x0).powf(best)
 }
 
 /// Each method's runs: its Pareto line, its successful runs as dots, its failed runs as crosses
@@ -339,7 +370,17 @@ where
         .axis_desc_style(("sans-serif", 15))
         .light_line_style(WHITE.mix(0.0))
         .draw()?;
-    draw_guides(&mut chart, [x0, x1, y0, y1], fail_y, energy)?;
+    let points: Vec<(f64, f64)> = shown
+        .iter()
+        .map(|r| {
+            if r.failed() {
+                (r.cpu.max(x0), fail_y)
+            } else {
+                (r.cpu, y(r))
+            }
+        })
+        .collect();
+    draw_guides(&mut chart, [x0, x1, y0, y1], fail_y, energy, &points)?;
     draw_methods(&mut chart, &shown, x0, fail_y, energy)?;
     let front = pareto(shown.iter().copied(), y);
     chart
@@ -360,6 +401,9 @@ where
     Ok(())
 }
 
+/// Rows and columns of the maps' per-method panels: room for every method of [`METHODS`].
+const METHOD_GRID: (usize, usize) = (METHODS.len().div_ceil(4), 4);
+
 pub(crate) fn draw_stability<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     cfg: &Config,
@@ -374,7 +418,7 @@ where
     );
     let (top, body) = root.split_vertically(40);
     top.draw(&Text::new(title, (10, 12), ("sans-serif", 15).into_font()))?;
-    let panels = body.split_evenly((2, 3));
+    let panels = body.split_evenly(METHOD_GRID);
     let nr = cfg.stability_ratios.len() as i32;
     let ns = cfg.substeps.len() as i32;
     for (panel, method) in panels.iter().zip(METHODS) {
@@ -408,6 +452,7 @@ where
                 }
             })
             .x_desc("substeps")
+            .y_desc("end-mass ratio")
             .label_style(("sans-serif", 12))
             .axis_desc_style(("sans-serif", 12))
             .draw()?;
@@ -439,6 +484,19 @@ where
         }
     }
     Ok(())
+}
+
+/// The least-squares slope of `log(cost)` against `log(N)` (at least two sizes).
+pub(crate) fn cost_exponent(pts: &[(f64, f64)]) -> Option<f64> {
+    if pts.len() < 2 {
+        return None;
+    }
+    let n = pts.len() as f64;
+    let (lx, ly): (Vec<f64>, Vec<f64>) = pts.iter().map(|&(x, y)| (x.ln(), y.ln())).unzip();
+    let (mx, my) = (lx.iter().sum::<f64>() / n, ly.iter().sum::<f64>() / n);
+    let sxy: f64 = lx.iter().zip(&ly).map(|(x, y)| (x - mx) * (y - my)).sum();
+    let sxx: f64 = lx.iter().map(|x| (x - mx).powi(2)).sum();
+    (sxx > 0.0).then(|| sxy / sxx)
 }
 
 pub(crate) fn draw_scaling<DB: DrawingBackend>(
@@ -489,28 +547,16 @@ where
             continue;
         }
         let c = method.color();
+        // The legend gives each method's measured cost exponent (no guide lines to label).
+        let label = match cost_exponent(&pts) {
+            Some(p) => format!("{} (~N^{p:.2})", method.name()),
+            None => method.name(),
+        };
         chart
             .draw_series(LineSeries::new(pts.iter().copied(), c.stroke_width(2)))?
-            .label(method.name())
+            .label(label)
             .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], c.stroke_width(3)));
         chart.draw_series(pts.iter().map(|p| Circle::new(*p, 4, c.filled())))?;
-    }
-    // Slope guides from the smallest Lagrange point: N and N^3.
-    if let Some(base) = costs.iter().find(|c| c.method == Method::Lagrange) {
-        let (nb, yb) = (base.n as f64, base.us_per_step / 3.0);
-        for (p, label) in [(1.0, "~N"), (3.0, "~N^3")] {
-            let end = (n1.min(nb * 10f64.powf(3.0 / p)), 0.0);
-            let end = (end.0, yb * (end.0 / nb).powf(p));
-            chart.draw_series(LineSeries::new(
-                [(nb, yb), end],
-                BLACK.mix(0.4).stroke_width(1),
-            ))?;
-            chart.draw_series(std::iter::once(Text::new(
-                label,
-                end,
-                ("sans-serif", 13).into_font(),
-            )))?;
-        }
     }
     chart
         .configure_series_labels()
@@ -527,7 +573,7 @@ where
 pub(crate) fn draw_grid<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
     caption: &str,
-    x_desc: &str,
+    [x_desc, y_desc]: [&str; 2],
     xs: &[String],
     ys: &[String],
     cell: impl Fn(usize, usize) -> Option<(RGBColor, String)>,
@@ -559,6 +605,7 @@ where
         .x_label_formatter(&|x| label(*x, xs))
         .y_label_formatter(&|y| label(*y, ys))
         .x_desc(x_desc)
+        .y_desc(y_desc)
         .label_style(("sans-serif", 12))
         .axis_desc_style(("sans-serif", 12))
         .draw()?;
@@ -645,7 +692,7 @@ where
     draw_grid(
         &body,
         "k (N/m, N m/rad) against dt (s)",
-        "dt (s)",
+        ["dt (s)", "penalty stiffness k (N/m, N m/rad)"],
         &xs,
         &ys,
         |i, j| {
@@ -682,11 +729,11 @@ where
         .iter()
         .map(|d| format!("{d:.0e}"))
         .collect();
-    for (panel, method) in body.split_evenly((2, 3)).iter().zip(METHODS) {
+    for (panel, method) in body.split_evenly(METHOD_GRID).iter().zip(METHODS) {
         draw_grid(
             panel,
             &method.name(),
-            "dt (s)",
+            ["dt (s)", "start above the singular pose (rad)"],
             &xs,
             &ys,
             |i, j| {

@@ -182,11 +182,14 @@ pub fn count(v: &str) -> Result<usize, String> {
 pub const USAGE: u8 = 64;
 
 /// Parses the command line into `C` with clap, after setting the defaults `(flag id, value)`
-/// that differ from [`RunArgs`]' (and `--out`'s to `out/<demo>`). `--key value` and `--key=value` both work; `--help` prints
+/// that differ from [`RunArgs`]' (and `--out`'s to `out/<demo>` where it has none). `--key value` and `--key=value` both work; `--help` prints
 /// the help (exit 0); an unknown flag or a bad value prints clap's usage error (exit 64).
 pub fn parse<C: clap::Parser>(demo: &'static str, defaults: &[(&'static str, &'static str)]) -> C {
     let mut cmd = C::command().name(demo);
-    if cmd.get_arguments().any(|a| a.get_id() == "out") {
+    if cmd
+        .get_arguments()
+        .any(|a| a.get_id() == "out" && a.get_default_values().is_empty())
+    {
         let out: &'static str = Box::leak(format!("out/{demo}").into_boxed_str());
         cmd = cmd.mut_arg("out", |a| a.default_value(out));
     }

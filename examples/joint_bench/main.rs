@@ -260,7 +260,7 @@ fn chains(quick: bool) {
     for &n in sizes {
         for ratio in [1.0, 1000.0] {
             for backend in BACKENDS {
-                // Multibody chains cost ~N^3: skip them beyond 100 links.
+                // Multibody chains cost ~N^2 (exponent 2.1): skip them beyond 100 links.
                 if backend == Backend::RapierMultibody && n > 100 {
                     continue;
                 }
