@@ -24,8 +24,8 @@
 //!     world.step()?;
 //! }
 //! let out = world.output(hinge)?;
-//! // The rod tension (the reaction on node J) balances gravity and the centripetal force.
-//! assert!(out.rotation.z < 0.0 && out.gap < 1e-9);
+//! // The hinge holds: its gap is round-off (1e-10 m in f64, 6e-8 m in the f32 build).
+//! assert!(out.rotation.z < 0.0 && out.gap < 1e-6);
 //! println!("ROTZ {:.4} rad, reaction {:.3} N", out.rotation.z, out.force.length());
 //! # Ok::<(), rapier3d_mpc184::Error>(())
 //! ```
