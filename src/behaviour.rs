@@ -352,6 +352,17 @@ impl Friction {
     }
 }
 
+/// The springs' and dampers' generalised forces on a joint's six DOFs ([`Behaviour::forces`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct DofForces {
+    /// Spring forces (N or N m), UX..ROTZ.
+    pub spring: [Real; 6],
+    /// Damper forces (N or N m), UX..ROTZ.
+    pub damper: [Real; 6],
+    /// Elastic energy (J).
+    pub energy: Real,
+}
+
 /// The behaviour attached to a joint's free DOFs (plain data; see the module table).
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Behaviour {
@@ -412,6 +423,40 @@ impl Behaviour {
             }
         }
         e
+    }
+
+    /// The generalised forces of the springs and dampers on the free DOFs (N or N m, on node J
+    /// along each DOF, UX..ROTZ): `spring = -K x - f_table(x)` at the deflections `x` (measure
+    /// minus reference) and `damper = -C v - f_table(v)` at the DOF rates `v`, and the elastic
+    /// energy at `x` (J). Constrained DOFs get nothing.
+    pub fn forces(&self, x: &[Real; 6], v: &[Real; 6], free: crate::dof::DofMask) -> DofForces {
+        let mut f = DofForces::default();
+        if let Some(kmat) = &self.stiffness {
+            let kx = kmat.apply(x, free);
+            for k in 0..6 {
+                f.spring[k] -= kx[k];
+                f.energy += 0.5 * x[k] * kx[k];
+            }
+        }
+        if let Some(cmat) = &self.damping {
+            let cv = cmat.apply(v, free);
+            for k in 0..6 {
+                f.damper[k] -= cv[k];
+            }
+        }
+        for k in 0..6 {
+            if !free.contains(Dof::ALL[k]) {
+                continue;
+            }
+            if let Some(t) = &self.stiffness_tables[k] {
+                f.spring[k] -= t.eval(x[k]).0;
+                f.energy += t.integral(x[k]);
+            }
+            if let Some(t) = &self.damping_tables[k] {
+                f.damper[k] -= t.eval(v[k]).0;
+            }
+        }
+        f
     }
 
     /// Checks the behaviour against the joint kind: returns `(field, reason)` for the first

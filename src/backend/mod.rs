@@ -60,12 +60,11 @@ impl Capability {
     fn refusal(self) -> (&'static str, &'static str) {
         match self {
             Capability::Behaviour => (
-                "stops, locks, springs and dampers (SECSTOP, SECLOCK, TB,JOIN)",
+                "stops and locks (SECSTOP, SECLOCK), or friction on a joint with more than one \
+                 friction DOF",
                 "they run on the Lagrange backend (Backend::Lagrange, the default), with either \
-                 constraint method; Rapier's own limits are perfectly plastic and its motors see \
-                 only the body's own inertia (on the Rapier backends only friction on a \
-                 revolute, slot or translational joint is approximated, by a force-capped \
-                 velocity motor)",
+                 constraint method; the Rapier backends impose springs and dampers (TB,JOIN) and \
+                 friction on a revolute, slot or translational joint",
             ),
             Capability::Drive => (
                 "a prescribed relative motion (DJ)",
@@ -145,12 +144,15 @@ impl JointBackend {
     }
 
     /// Checks that the backend can impose the joint's behaviour: every behaviour on the
-    /// Lagrange backend; on the Rapier backends only friction on a single-DOF joint.
+    /// Lagrange backend; on the Rapier backends springs, dampers and friction on a single-DOF
+    /// joint ([`rapier::admits`]).
     pub(crate) fn admit(&self, joint: &Mpc184Joint) -> Result<(), Error> {
-        if joint.behaviour.is_empty() || rapier::friction::approximates(joint) {
-            return Ok(());
+        match self {
+            JointBackend::Rapier(_) if !rapier::admits(joint) => {
+                self.require(Capability::Behaviour)
+            }
+            _ => Ok(()),
         }
-        self.require(Capability::Behaviour)
     }
 
     /// Lowers the joint (the Rapier joint's locked axes), resolves grounded sides (`None`) to

@@ -22,14 +22,10 @@ const AXES: [JointAxis; 6] = [
     JointAxis::AngZ,
 ];
 
-/// True when the joint's only behaviour is friction that a Rapier motor approximates: a joint
-/// with a single friction DOF (revolute, slot, translational), not a screw.
-pub(crate) fn approximates(joint: &Mpc184Joint) -> bool {
-    let mut b = joint.behaviour.clone();
-    let fr = b.friction.take();
-    b.is_empty()
-        && fr.is_some()
-        && Friction::dofs(&joint.kind).is_some_and(|d| d.len() == 1)
+/// True when the joint's friction is one a Rapier motor approximates: a joint with a single
+/// friction DOF (revolute, slot, translational), not a screw.
+pub(crate) fn fits(joint: &Mpc184Joint) -> bool {
+    Friction::dofs(&joint.kind).is_some_and(|d| d.len() == 1)
         && !matches!(joint.kind, JointKind::Screw { .. })
 }
 

@@ -1,8 +1,7 @@
 //! Springs, dampers (linear 6x6 and tabulated, `TB,JOIN`) and applied loads (`FJ`) as
 //! generalised forces on the free DOFs, half an impulse at a time.
 
-use crate::behaviour::dof_rows;
-use crate::dof::Dof;
+use crate::behaviour::{DofForces, dof_rows};
 use crate::math::{Real, Vector};
 
 use super::super::super::Sets;
@@ -40,34 +39,11 @@ impl Effects {
             let rate: [Real; 6] = core::array::from_fn(|k| rows[k].rate(vel[0], vel[1]));
             let x: [Real; 6] =
                 core::array::from_fn(|k| m[k] - b.reference[k].unwrap_or(e.initial[k]));
-            let mut spring = [0.0; 6];
-            let mut damper = [0.0; 6];
-            let mut energy = 0.0;
-            if let Some(kmat) = &b.stiffness {
-                let kx = kmat.apply(&x, free);
-                for k in 0..6 {
-                    spring[k] -= kx[k];
-                    energy += 0.5 * x[k] * kx[k];
-                }
-            }
-            if let Some(cmat) = &b.damping {
-                let cv = cmat.apply(&rate, free);
-                for k in 0..6 {
-                    damper[k] -= cv[k];
-                }
-            }
-            for k in 0..6 {
-                if !free.contains(Dof::ALL[k]) {
-                    continue;
-                }
-                if let Some(t) = &b.stiffness_tables[k] {
-                    spring[k] -= t.eval(x[k]).0;
-                    energy += t.integral(x[k]);
-                }
-                if let Some(t) = &b.damping_tables[k] {
-                    damper[k] -= t.eval(rate[k]).0;
-                }
-            }
+            let DofForces {
+                spring,
+                damper,
+                energy,
+            } = b.forces(&x, &rate, free);
             let mut load = [0.0; 6];
             // The right limit: a stepped load acts from the substep that starts at its jump
             // (with the left limit its first half kick was lost, an O(h) error: Andrews'
