@@ -439,9 +439,8 @@ impl Behaviour {
             }
         }
         if let Some(cmat) = &self.damping {
-            let cv = cmat.apply(v, free);
-            for k in 0..6 {
-                f.damper[k] -= cv[k];
+            for (d, cv) in f.damper.iter_mut().zip(cmat.apply(v, free)) {
+                *d -= cv;
             }
         }
         for k in 0..6 {

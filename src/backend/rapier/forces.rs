@@ -73,8 +73,8 @@ impl RapierBackend {
             let forces = b.forces(&x, &rate, e.joint.kind.free());
             let mut total: [Real; 6] =
                 core::array::from_fn(|k| forces.spring[k] + forces.damper[k]);
-            for k in 0..6 {
-                sets.ledger.dissipated -= forces.damper[k] * rate[k] * span;
+            for (d, r) in forces.damper.iter().zip(&rate) {
+                sets.ledger.dissipated -= d * r * span;
             }
             for d in &e.loads {
                 let value = d.profile.value_after(t);
