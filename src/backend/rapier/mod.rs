@@ -24,6 +24,7 @@
 mod forces;
 pub(crate) mod friction;
 mod reactions;
+mod stops;
 
 use crate::error::{Error, JointId};
 use crate::joint_set::RapierJoint;
@@ -205,8 +206,10 @@ impl RapierBackend {
                 if s + 1 == n {
                     self.record(sets, h);
                 }
+                let approaches = self.approach(sets);
                 sets.physics.step();
                 forces::release(sets, held);
+                self.rebound(sets, &approaches, h);
             }
         } else {
             let p = &mut sets.physics.integration_parameters;
@@ -214,8 +217,10 @@ impl RapierBackend {
             p.num_solver_iterations = n;
             let held = self.apply_forces(sets, h * n as Real, n, sets.time);
             self.record(sets, h * n as Real);
+            let approaches = self.approach(sets);
             sets.physics.step();
             forces::release(sets, held);
+            self.rebound(sets, &approaches, h);
         }
     }
 
@@ -321,7 +326,7 @@ impl RapierBackend {
 /// joint (a force-capped motor, [`friction`]).
 pub(crate) fn admits(joint: &crate::joint::Mpc184Joint) -> bool {
     let b = &joint.behaviour;
-    b.stops.is_empty() && b.locks.is_empty() && (b.friction.is_none() || friction::fits(joint))
+    b.locks.is_empty() && (b.friction.is_none() || friction::fits(joint))
 }
 
 /// True if `h` is a link of a multibody that holds a fixed body (a grounded tree).
