@@ -112,6 +112,36 @@ fn non_finite(id: JointId, dof: Dof, what: &str) -> Error {
 }
 
 impl JointSet {
+    /// Adds the locks engaged during the last step as permanent rows holding their DOFs at
+    /// the lock values (called at a step's start by every backend: the rows serve the Lagrange
+    /// solve and, on the Rapier backends, the reaction recovery and the output's gap).
+    pub(crate) fn apply_pending_locks(&mut self) -> Result<(), Error> {
+        let mut changed = false;
+        for (j, e) in self.slots_mut().iter_mut().enumerate() {
+            let Some(e) = e else { continue };
+            for (dof, value) in core::mem::take(&mut e.state.pending) {
+                let k = dof.index();
+                let (initial, reference) = if dof.is_rotation() {
+                    (e.initial[k], e.state.output.measure[k])
+                } else {
+                    (0.0, 0.0)
+                };
+                let row = RowKind::Drive {
+                    dof,
+                    target: value - e.initial[k],
+                    initial,
+                    reference,
+                };
+                e.replace_dof_row(JointId(j as u32), row)?;
+                changed = true;
+            }
+        }
+        if changed {
+            self.touch();
+        }
+        Ok(())
+    }
+
     /// The number of slots (joints ever inserted).
     pub(crate) fn len(&self) -> usize {
         self.entries.len()

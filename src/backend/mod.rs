@@ -60,11 +60,10 @@ impl Capability {
     fn refusal(self) -> (&'static str, &'static str) {
         match self {
             Capability::Behaviour => (
-                "stops and locks (SECSTOP, SECLOCK), or friction on a joint with more than one \
-                 friction DOF",
-                "they run on the Lagrange backend (Backend::Lagrange, the default), with either \
-                 constraint method; the Rapier backends impose springs and dampers (TB,JOIN) and \
-                 friction on a revolute, slot or translational joint",
+                "friction on a joint with more than one friction DOF (or a screw)",
+                "it runs on the Lagrange backend (Backend::Lagrange, the default), with either \
+                 constraint method; the Rapier backends approximate friction by one force-capped \
+                 motor, on a revolute, slot or translational joint",
             ),
             Capability::Drive => (
                 "a prescribed relative motion (DJ)",
@@ -144,8 +143,8 @@ impl JointBackend {
     }
 
     /// Checks that the backend can impose the joint's behaviour: every behaviour on the
-    /// Lagrange backend; on the Rapier backends springs, dampers and friction on a single-DOF
-    /// joint ([`rapier::admits`]).
+    /// Lagrange backend; on the Rapier backends stops, locks, springs, dampers and friction on a
+    /// single-DOF joint ([`rapier::admits`]).
     pub(crate) fn admit(&self, joint: &Mpc184Joint) -> Result<(), Error> {
         match self {
             JointBackend::Rapier(_) if !rapier::admits(joint) => {
@@ -217,6 +216,7 @@ impl JointBackend {
         match self {
             JointBackend::Lagrange(l) => l.step(sets, h, n),
             JointBackend::Rapier(r) => {
+                sets.joints.apply_pending_locks()?;
                 r.step(sets, h, n);
                 Ok(())
             }

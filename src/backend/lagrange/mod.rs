@@ -382,7 +382,7 @@ impl LagrangeBackend {
     /// Runs one step of `n` substeps of `h`.
     pub(crate) fn step(&mut self, sets: &mut Sets, h: Real, n: usize) -> Result<(), Error> {
         self.fx.fit(sets.joints);
-        self.fx.apply_pending_locks(sets.joints)?;
+        sets.joints.apply_pending_locks()?;
         self.fx.begin_step(sets.joints);
         let rebuilt = self.needs_rebuild(sets);
         if rebuilt {

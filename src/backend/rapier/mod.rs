@@ -321,12 +321,12 @@ impl RapierBackend {
     }
 }
 
-/// True when the Rapier backends impose all of the joint's behaviour: springs and dampers
-/// with their references (forces around each call, [`forces`]) and friction on a single-DOF
-/// joint (a force-capped motor, [`friction`]).
+/// True when the Rapier backends impose all of the joint's behaviour: stops and locks
+/// (Rapier limits with restitution and latching, [`stops`]), springs and dampers with their
+/// references (forces around each call, [`forces`]) and friction on a single-DOF joint (a
+/// force-capped motor, [`friction`]).
 pub(crate) fn admits(joint: &crate::joint::Mpc184Joint) -> bool {
-    let b = &joint.behaviour;
-    b.locks.is_empty() && (b.friction.is_none() || friction::fits(joint))
+    joint.behaviour.friction.is_none() || friction::fits(joint)
 }
 
 /// True if `h` is a link of a multibody that holds a fixed body (a grounded tree).

@@ -1,5 +1,5 @@
-//! Stops (`SECSTOP`) on the Rapier backends: Rapier's own limits on the stopped axes, plus the
-//! restitution Rapier lacks.
+//! Stops (`SECSTOP`) and locks (`SECLOCK`) on the Rapier backends: Rapier's own limits on the
+//! stopped axes, plus the restitution and the latching Rapier lacks.
 //!
 //! - **Limits**: each stop is a Rapier limit on its joint axis (impulse and multibody joints
 //!   alike), in Rapier's measure: Rapier's joint frames coincide at time 0, so a limit on the
@@ -16,6 +16,12 @@
 //!   across the impact to the energy error of the call itself, and the momentum the stop's
 //!   reaction carries is reversed. The penalty method's stop stays plastic, as on the Lagrange
 //!   backend.
+//! - **Locks**: a lock reached in a call engages at the call's end: the DOF is put back on the
+//!   lock value and its rate taken out through the joint (the same response as above, plastic),
+//!   the energy that takes is booked as dissipated (exact whatever the overshoot: the energy
+//!   before is the motion's, after it the body rests at the lock value), and from the next call
+//!   a Rapier limit closed on the value holds it, from the next step a row holds it for the
+//!   reaction recovery, as on the Lagrange backend.
 //! - Approximations: the two bodies' energy stands for the mechanism's (exact for a body on a
 //!   grounded joint; in a chain the other joints' share of the impact is left to Rapier's next
 //!   call), the multibody backend's rate is set on the joint's own generalized coordinate, and
@@ -46,6 +52,8 @@ const AXES: [JointAxis; 6] = [
 pub(super) struct Approach {
     slot: usize,
     dof: usize,
+    /// A lock (`SECLOCK`) not engaged yet, rather than a stop.
+    lock: bool,
     /// The DOF's rate (m/s or rad/s).
     rate: Real,
     /// Kinetic plus gravitational energy of the joint's two bodies (J).
@@ -85,23 +93,38 @@ impl RapierBackend {
         let mut out = Vec::new();
         for (slot, e) in sets.joints.slots().iter().enumerate() {
             let Some(e) = e else { continue };
-            if e.joint.behaviour.stops.is_empty() {
+            let b = &e.joint.behaviour;
+            if b.stops.is_empty() && b.locks.is_empty() {
                 continue;
             }
             if let Some(data) = joint_data(sets.physics, &e.rapier) {
-                for s in &e.joint.behaviour.stops {
+                for s in &b.stops {
                     let k = s.dof.index();
                     let (lo, hi) = (s.min - e.initial[k], s.max - e.initial[k]);
                     data.set_limits(AXES[rapier_axis(e, k)], [lo, hi]);
                 }
+                // An engaged lock: a Rapier limit closed on its value.
+                for l in &b.locks {
+                    let k = l.dof.index();
+                    if let Some(v) = e.state.locked[k] {
+                        data.set_limits(AXES[rapier_axis(e, k)], [v - e.initial[k]; 2]);
+                    }
+                }
             }
             let (energy, power) = self.local_energy(sets, e);
             let (_, rate) = self.dof_state(sets, e);
-            for s in &e.joint.behaviour.stops {
+            let stops = b.stops.iter().map(|s| (s.dof, false));
+            let locks = b
+                .locks
+                .iter()
+                .filter(|l| e.state.locked[l.dof.index()].is_none())
+                .map(|l| (l.dof, true));
+            for (dof, lock) in stops.chain(locks) {
                 out.push(Approach {
                     slot,
-                    dof: s.dof.index(),
-                    rate: rate[s.dof.index()],
+                    dof: dof.index(),
+                    lock,
+                    rate: rate[dof.index()],
                     energy,
                     power,
                 });
@@ -114,6 +137,10 @@ impl RapierBackend {
     /// call, the energy the plastic limit took (see the module docs).
     pub(super) fn rebound(&self, sets: &mut Sets, approaches: &[Approach], step: Real) {
         for a in approaches {
+            if a.lock {
+                self.engage(sets, a);
+                continue;
+            }
             let Some(Some(e)) = sets.joints.slots().get(a.slot) else {
                 continue;
             };
@@ -195,6 +222,70 @@ impl RapierBackend {
         }
     }
 
+    /// A lock reached in the call engages: the DOF is put back on the lock value and its
+    /// rate taken out through the joint (plastic, as MPC184's lock), the energy that took is
+    /// booked as dissipated, and the DOF is held there for good (a Rapier limit closed on the
+    /// value from the next call, a row for the reactions from the next step).
+    fn engage(&self, sets: &mut Sets, a: &Approach) {
+        let Some(Some(e)) = sets.joints.slots().get(a.slot) else {
+            return;
+        };
+        let Some(lock) = e
+            .joint
+            .behaviour
+            .locks
+            .iter()
+            .find(|l| l.dof.index() == a.dof)
+        else {
+            return;
+        };
+        let lock = *lock;
+        let (m, rate) = self.dof_state(sets, e);
+        let (q, v) = (m[a.dof], rate[a.dof]);
+        let value = if q <= lock.min {
+            lock.min
+        } else if q >= lock.max {
+            lock.max
+        } else {
+            return;
+        };
+        let before = self.local_energy(sets, e).0;
+        let (body1, body2, rapier) = (e.body1, e.body2, e.rapier);
+        let axis = rapier_axis(e, a.dof);
+        let side = |b: RigidBodyHandle| crate::body::pose_and_com(&sets.physics.bodies[b]);
+        let f = FramePair::at(&e.low, side(body1), side(body2));
+        let (_, rows) = dof_rows(&f, [e.state.output.measure[3], e.state.output.measure[5]]);
+        let mut set: Vec<RowEval> = vec![rows[a.dof]];
+        set.extend(
+            (0..6)
+                .filter(|&k| !e.joint.kind.free().contains(crate::dof::Dof::ALL[k]))
+                .map(|k| rows[k]),
+        );
+        let past = q - value;
+        if self.multibody() {
+            Self::set_coordinate_rate(sets, rapier, axis, None, -past);
+        } else if let Some((_, unit)) = response(&sets.physics.bodies, [body1, body2], &set) {
+            for (b, (dl, da)) in [body1, body2].into_iter().zip(unit) {
+                displace(&mut sets.physics.bodies, b, dl * -past, da * -past);
+                let rb = &mut sets.physics.bodies[b];
+                if rb.is_dynamic() {
+                    let (lin, ang) = (rb.linvel() - dl * v, rb.angvel() - da * v);
+                    rb.set_linvel(lin, true);
+                    rb.set_angvel(ang, true);
+                }
+            }
+        }
+        let Some(Some(e)) = sets.joints.slots().get(a.slot) else {
+            return;
+        };
+        let after = self.local_energy(sets, e).0;
+        sets.ledger.dissipated += before - after;
+        if let Some(Some(e)) = sets.joints.slots_mut().get_mut(a.slot) {
+            e.state.locked[a.dof] = Some(value);
+            e.state.pending.push((lock.dof, value));
+        }
+    }
+
     /// The joint's six DOF measures (with the output's unwrapping) and rates now.
     fn dof_state(&self, sets: &Sets, e: &JointEntry) -> ([Real; 6], [Real; 6]) {
         let side = |b: RigidBodyHandle| crate::body::pose_and_com(&sets.physics.bodies[b]);
@@ -221,10 +312,53 @@ impl RapierBackend {
             let weight = g * (rb.mass() * rb.gravity_scale());
             total += 0.5 * rb.mass() * v.length_squared()
                 + 0.5 * w.dot(crate::body::world_inertia(rb) * w)
-                - weight.dot(rb.center_of_mass());
+                - weight.dot(com(rb));
             power += weight.dot(v);
         }
         (total, power)
+    }
+
+    /// The multibody backend: sets the generalized velocity of the joint's coordinate on
+    /// Rapier axis `axis` (to `rate`, or to 0 with `None`) and moves that coordinate by `disp`.
+    fn set_coordinate_rate(
+        sets: &mut Sets,
+        rapier: RapierJoint,
+        axis: usize,
+        rate: Option<Real>,
+        disp: Real,
+    ) {
+        let RapierJoint::Multibody(h) = rapier else {
+            return;
+        };
+        let bodies = &sets.physics.bodies;
+        let Some((mb, link)) = sets.physics.multibody_joints.get_mut(h) else {
+            return;
+        };
+        let Some(l) = mb.link(link) else {
+            return;
+        };
+        let free_axes = !l.joint.data.locked_axes.bits() & 0x3f;
+        if free_axes & (1 << axis) == 0 {
+            return;
+        }
+        let index = l.assembly_id() + (0..axis).filter(|a| free_axes & (1 << a) != 0).count();
+        let n = mb.generalized_velocity().len();
+        if index >= n {
+            return;
+        }
+        mb.generalized_velocity_mut()[index] = rate.unwrap_or(0.0);
+        if disp != 0.0 {
+            let mut d = vec![0.0 as Real; n];
+            d[index] = disp;
+            mb.apply_displacements(&d);
+            mb.forward_kinematics(bodies, false);
+            for l in mb.links() {
+                let pose = *l.local_to_world();
+                if let Some(rb) = sets.physics.bodies.get_mut(l.rigid_body_handle()) {
+                    rb.set_position(pose, true);
+                }
+            }
+        }
     }
 
     /// The multibody backend: the joint's own generalized velocity (Rapier axis `axis` of
@@ -360,9 +494,15 @@ fn displace(bodies: &mut RigidBodySet, b: RigidBodyHandle, dl: Vector, da: Vecto
         return;
     }
     let pose = *rb.position();
-    let com = rb.center_of_mass();
+    let com = com(rb);
     let turn = crate::math::Rotation::from_scaled_axis(da);
     let origin = com + dl + turn * (pose.translation - com);
     let rotation = (turn * pose.rotation).normalize();
     rb.set_position(crate::math::Pose::from_parts(origin, rotation), true);
+}
+
+/// A body's centre of mass from its pose (Rapier's own world centre of mass is only brought up
+/// to date at its next step, and the latching moves bodies between steps).
+fn com(rb: &crate::math::rapier::dynamics::RigidBody) -> Vector {
+    *rb.position() * rb.mass_properties().local_mprops.local_com
 }

@@ -33,7 +33,7 @@ use crate::joint::ConstraintMethod;
 use crate::joint_set::{JointEntry, JointSet};
 use crate::math::rapier::dynamics::RigidBodySet;
 use crate::math::{Real, Vector};
-use crate::rows::{FramePair, RowEval, RowKind};
+use crate::rows::{FramePair, RowEval};
 
 use super::Island;
 
@@ -118,34 +118,6 @@ impl Effects {
             .filter_map(|&j| self.scratch.get(j))
             .map(|s| s.spring_energy)
             .sum()
-    }
-
-    /// Adds locks engaged during the last step as permanent rows (called at a step's start).
-    pub(crate) fn apply_pending_locks(&mut self, joints: &mut JointSet) -> Result<(), Error> {
-        let mut changed = false;
-        for (j, e) in joints.slots_mut().iter_mut().enumerate() {
-            let Some(e) = e else { continue };
-            for (dof, value) in core::mem::take(&mut e.state.pending) {
-                let k = dof.index();
-                let (initial, reference) = if dof.is_rotation() {
-                    (e.initial[k], e.state.output.measure[k])
-                } else {
-                    (0.0, 0.0)
-                };
-                let row = RowKind::Drive {
-                    dof,
-                    target: value - e.initial[k],
-                    initial,
-                    reference,
-                };
-                e.replace_dof_row(crate::error::JointId(j as u32), row)?;
-                changed = true;
-            }
-        }
-        if changed {
-            joints.touch();
-        }
-        Ok(())
     }
 
     /// Resets the per-step limit flags (called at a step's start).
