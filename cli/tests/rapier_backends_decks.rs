@@ -43,7 +43,7 @@ fn every_asset_deck_runs_or_names_what_stops_it() {
                 Some(3) => assert!(
                     err.contains("diverged")
                         && err.contains("joint element")
-                        && err.contains("rows up to"),
+                        && err.contains("output row up to"),
                     "{name} on {backend}: {err}"
                 ),
                 code => panic!("{name} on {backend}: exit {code:?}: {err}"),
