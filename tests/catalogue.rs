@@ -147,7 +147,9 @@ fn expected(kind: &JointKind) -> Expected {
             translations_only,
         } => general(released, *translations_only, "GENE", 16, false),
         // Plain locks: UX UY ROTX ROTY; UZ is the pitch-coupled one, ROTZ the only free DOF.
-        JointKind::Screw { .. } => row(17, 0, "SCRE", &[Ux, Uy, RotX, RotY], &[RotZ], 2, false),
+        // Rapier: a cylindrical joint about e3 (its constrained DOFs locked); the coupling UZ =
+        // pitch ROTZ is projected around each Rapier call (src/backend/rapier/screw.rs).
+        JointKind::Screw { .. } => row(17, 0, "SCRE", &[Ux, Uy, RotX, RotY], &[RotZ], 2, true),
         JointKind::Spotweld => row(18, 0, "SPOT", &[], &ALL_DOFS, 0, false),
         // One distance equation; no DOF is locked alone or a free coordinate, no section.
         JointKind::RigidLink => Expected {
@@ -550,7 +552,7 @@ fn lowering_to_rapier() {
 
 #[test]
 fn unsupported_set_is_exactly_the_expected_one() {
-    // Among the representatives: universal, screw, spotweld, the rigid link (a distance is no
+    // Among the representatives: universal, spotweld, the rigid link (a distance is no
     // locked-axes mask; general/genb representatives lock
     // 0 or 3 rotations and are supported).
     let mut unsupported: Vec<&str> = JointKind::representatives()
@@ -559,7 +561,7 @@ fn unsupported_set_is_exactly_the_expected_one() {
         .map(|k| k.name())
         .collect();
     unsupported.sort_unstable();
-    let want = vec!["rigid link", "screw", "spotweld", "universal"];
+    let want = vec!["rigid link", "spotweld", "universal"];
     assert_eq!(
         unsupported, want,
         "unsupported {unsupported:?} vs expected {want:?}"

@@ -111,15 +111,9 @@ pub fn lower(
         JointKind::General { .. } | JointKind::Genb { .. } | JointKind::Universal => Err(
             unsupported_lone(kind, backend, "one locked rotation with two free ones"),
         ),
-        JointKind::Screw { .. } => Err(Error::Unsupported {
-            what: format!(
-                "the screw coupling UZ = pitch * ROTZ on the {} backend",
-                backend.name()
-            ),
-            hint: "Rapier joints cannot couple a translation to a rotation; the Lagrange backend \
-                   adds it as an extra row"
-                .into(),
-        }),
+        // The coupling UZ = pitch * ROTZ is imposed around each Rapier call
+        // (`rapier/screw.rs`); Rapier sees a cylindrical joint about e3.
+        JointKind::Screw { .. } => Ok(rapier_mask(kind.constrained(), principal)),
         JointKind::Spotweld => Err(Error::Unsupported {
             what: format!(
                 "the spotweld 6x6 spring/damper on the {} backend",

@@ -24,6 +24,7 @@
 mod forces;
 pub(crate) mod friction;
 mod reactions;
+mod screw;
 mod stops;
 
 use crate::error::{Error, JointId};
@@ -210,6 +211,7 @@ impl RapierBackend {
                 sets.physics.step();
                 forces::release(sets, held);
                 self.rebound(sets, &approaches, h);
+                self.couple_screws(sets);
             }
         } else {
             let p = &mut sets.physics.integration_parameters;
@@ -221,6 +223,7 @@ impl RapierBackend {
             sets.physics.step();
             forces::release(sets, held);
             self.rebound(sets, &approaches, h);
+            self.couple_screws(sets);
         }
     }
 

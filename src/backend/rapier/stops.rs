@@ -434,7 +434,7 @@ impl RapierBackend {
 /// The two bodies' velocity changes `(dv, dw)` per unit change of the first of `rows` (the
 /// stop) that leave the others' rates alone, with the stop's effective mass `m_eff` (see the
 /// module docs); `None` when the rows are degenerate.
-fn response(
+pub(super) fn response(
     bodies: &RigidBodySet,
     pair: [RigidBodyHandle; 2],
     rows: &[RowEval],
@@ -488,7 +488,7 @@ fn response(
 
 /// Moves a dynamic body's centre of mass by `dl` and turns it by the rotation vector `da`
 /// about it.
-fn displace(bodies: &mut RigidBodySet, b: RigidBodyHandle, dl: Vector, da: Vector) {
+pub(super) fn displace(bodies: &mut RigidBodySet, b: RigidBodyHandle, dl: Vector, da: Vector) {
     let rb = &mut bodies[b];
     if !rb.is_dynamic() {
         return;
