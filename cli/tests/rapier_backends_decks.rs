@@ -1,7 +1,7 @@
 //! Every asset deck on Rapier's own joints (`--backend rapier-impulse` and `rapier-multibody`):
 //! it runs (exit 0), or stops with a typed error that names the construct: a deck error
 //! `FILE:LINE: COMMAND: unsupported: ...` with its hint (exit 2: a loop on multibody joints, a
-//! rigid link's distance, the screw coupling, a static analysis), or a divergence naming the
+//! rigid link's distance, a static analysis), or a divergence naming the
 //! joint element and the time of the rows kept (exit 3: the slider-crank's planar loop of point
 //! masses, which Rapier's impulse joints cannot hold at dt 1/240 s, stops and friction or not).
 //! No physics figures here: those are in `tests/rapier_*.rs`.
