@@ -132,6 +132,8 @@ impl JointBackend {
     pub(crate) fn require(&self, what: Capability) -> Result<(), Error> {
         match self {
             JointBackend::Lagrange(_) => Ok(()),
+            // Drives run on the Rapier backends as motors plus a correction (rapier/drives.rs).
+            JointBackend::Rapier(_) if matches!(what, Capability::Drive) => Ok(()),
             JointBackend::Rapier(_) => {
                 let (what, hint) = what.refusal();
                 Err(Error::Unsupported {

@@ -21,6 +21,7 @@
 //! sidesteps Rapier's `ImpulseJoint::impulses`, which are coefficients in a Gram-Schmidt-skewed
 //! basis of the last substep only, and works for multibody joints, which write no impulses back.
 
+mod drives;
 mod forces;
 pub(crate) mod friction;
 mod reactions;
@@ -71,6 +72,11 @@ pub(crate) struct RapierBackend {
     /// (multibody).
     #[cfg_attr(feature = "serde-snapshot", serde(skip))]
     span: Real,
+    /// When the recorded span starts (s), and the length of the step it ends (s).
+    #[cfg_attr(feature = "serde-snapshot", serde(skip))]
+    span_start: Real,
+    #[cfg_attr(feature = "serde-snapshot", serde(skip))]
+    step_duration: Real,
     /// The jointed dynamic bodies, and the joint set's topology counter they were listed at.
     #[cfg_attr(feature = "serde-snapshot", serde(skip))]
     touched: Vec<RigidBodyHandle>,
@@ -201,17 +207,22 @@ impl RapierBackend {
         }
         friction::set_motors(sets);
         self.refresh_touched(sets);
+        self.step_duration = h * n as Real;
         if self.multibody {
             for s in 0..n {
-                let held = self.apply_forces(sets, h, 1, sets.time + s as Real * h);
+                let t0 = sets.time + s as Real * h;
+                let held = self.apply_forces(sets, h, 1, t0);
                 if s + 1 == n {
                     self.record(sets, h);
+                    self.span_start = t0;
                 }
                 let approaches = self.approach(sets);
+                self.drive_motors(sets, t0, t0 + h);
                 sets.physics.step();
                 forces::release(sets, held);
                 self.rebound(sets, &approaches, h);
                 self.couple_screws(sets);
+                self.drive_positions(sets, t0 + h, h);
             }
         } else {
             let p = &mut sets.physics.integration_parameters;
@@ -220,10 +231,14 @@ impl RapierBackend {
             let held = self.apply_forces(sets, h * n as Real, n, sets.time);
             self.record(sets, h * n as Real);
             let approaches = self.approach(sets);
+            let span = h * n as Real;
+            self.span_start = sets.time;
+            self.drive_motors(sets, sets.time, sets.time + span);
             sets.physics.step();
             forces::release(sets, held);
             self.rebound(sets, &approaches, h);
             self.couple_screws(sets);
+            self.drive_positions(sets, sets.time + span, span);
         }
     }
 

@@ -32,6 +32,9 @@ impl RapierBackend {
         let mut specs = Vec::new();
         let mut jac: Vec<Real> = Vec::new();
         let mut owner: Vec<(usize, RowEval)> = Vec::new();
+        // Per row: the prescribed rate when it is a drive's row (its work is booked below).
+        let mut driven: Vec<Option<Real>> = Vec::new();
+        let (t0, t1) = (self.span_start, self.span_start + h);
         for (ji, e) in sets.joints.slots().iter().enumerate() {
             let Some(e) = e else { continue };
             if e.state.rows.is_empty() {
@@ -51,6 +54,14 @@ impl RapierBackend {
             });
             for r in &e.state.rows {
                 let ev = r.eval(&f);
+                driven.push(match r {
+                    crate::rows::RowKind::Drive { dof, .. } => e
+                        .drives
+                        .iter()
+                        .find(|d| d.dof == *dof)
+                        .map(|d| super::drives::mean_rate(d, t0, t1)),
+                    _ => None,
+                });
                 for half in [ev.j1, ev.j2] {
                     jac.extend_from_slice(&[half[0].x, half[0].y, half[0].z]);
                     jac.extend_from_slice(&[half[1].x, half[1].y, half[1].z]);
@@ -75,6 +86,14 @@ impl RapierBackend {
             // mu now holds the multipliers (impulses, N s).
         } else {
             mu.iter_mut().for_each(|m| *m = 0.0);
+        }
+        // A drive's work over the step: its force `mu / h` times the prescribed rate, over the
+        // step (the recorded span is the whole step on the impulse backend, its last substep on
+        // the multibody one).
+        for (rate, m) in driven.iter().zip(&mu) {
+            if let Some(rate) = rate {
+                sets.ledger.work += m / h * rate * self.step_duration;
+            }
         }
         // Accumulate each joint's wrench on body 2 and express it at node J in frame I.
         let mut wrench: Vec<(Vector, Vector)> =

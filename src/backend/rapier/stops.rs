@@ -63,7 +63,7 @@ pub(super) struct Approach {
 }
 
 /// The Rapier joint data of a joint (impulse or multibody link).
-fn joint_data<'a>(
+pub(super) fn joint_data<'a>(
     physics: &'a mut PhysicsWorld,
     rapier: &RapierJoint,
 ) -> Option<&'a mut GenericJoint> {
@@ -80,7 +80,7 @@ fn joint_data<'a>(
 }
 
 /// The Rapier axis of ANSYS DOF `dof` (0..6) of a joint.
-fn rapier_axis(e: &JointEntry, dof: usize) -> usize {
+pub(super) fn rapier_axis(e: &JointEntry, dof: usize) -> usize {
     let principal = e.joint.kind.principal_axis();
     let base = if dof >= 3 { 3 } else { 0 };
     base + lower::rapier_axis(dof % 3, principal)
@@ -320,7 +320,7 @@ impl RapierBackend {
 
     /// The multibody backend: sets the generalized velocity of the joint's coordinate on
     /// Rapier axis `axis` (to `rate`, or to 0 with `None`) and moves that coordinate by `disp`.
-    fn set_coordinate_rate(
+    pub(super) fn set_coordinate_rate(
         sets: &mut Sets,
         rapier: RapierJoint,
         axis: usize,
