@@ -20,13 +20,67 @@
 //! [`Behaviour::forces`]: crate::behaviour::Behaviour::forces
 
 use crate::behaviour::dof_rows;
+use crate::dof::Dof;
 use crate::math::rapier::dynamics::RigidBodyHandle;
+use crate::math::rapier::dynamics::{JointAxis, MotorModel};
 use crate::math::{Real, Vector};
 use crate::rows::FramePair;
 use crate::spring::Side;
 
 use super::super::Sets;
 use super::RapierBackend;
+
+const AXES: [JointAxis; 6] = [
+    JointAxis::LinX,
+    JointAxis::LinY,
+    JointAxis::LinZ,
+    JointAxis::AngX,
+    JointAxis::AngY,
+    JointAxis::AngZ,
+];
+
+/// The DOFs whose linear spring is too stiff for a force held over a call of `span` s:
+/// `K span^2 > m_eff` (`omega span > 1`, half the explicit limit) with `m_eff` the DOF's
+/// effective mass through the joint. Only an uncoupled diagonal term without a table qualifies
+/// (Rapier's motor acts on one axis): `(dof, K, C)` with `C` the diagonal damping.
+fn stiff_dofs(
+    sets: &Sets,
+    e: &crate::joint_set::JointEntry,
+    rows: &[crate::rows::RowEval; 6],
+    span: Real,
+) -> Vec<(usize, Real, Real)> {
+    let b = &e.joint.behaviour;
+    let Some(kmat) = &b.stiffness else {
+        return Vec::new();
+    };
+    let free = e.joint.kind.free();
+    let mut out = Vec::new();
+    for k in 0..6 {
+        let kk = kmat.get(k, k);
+        let uncoupled =
+            (0..6).all(|j| j == k || !free.contains(Dof::ALL[j]) || kmat.get(k, j) == 0.0);
+        if !free.contains(Dof::ALL[k]) || kk <= 0.0 || !uncoupled || b.stiffness_tables[k].is_some()
+        {
+            continue;
+        }
+        let mut set = vec![rows[k]];
+        set.extend(
+            (0..6)
+                .filter(|&j| !free.contains(Dof::ALL[j]))
+                .map(|j| rows[j]),
+        );
+        let Some((m_eff, _)) =
+            super::stops::response(&sets.physics.bodies, [e.body1, e.body2], &set)
+        else {
+            continue;
+        };
+        if kk * span * span > m_eff {
+            let cc = b.damping.as_ref().map_or(0.0, |c| c.get(k, k));
+            out.push((k, kk, cc));
+        }
+    }
+    out
+}
 
 /// The bodies' own user force and torque, to put back after the call.
 pub(super) type Held = Vec<(RigidBodyHandle, Vector, Vector)>;
@@ -52,6 +106,7 @@ impl RapierBackend {
             }
         }
         let mut element = Vec::new();
+        let mut motors = Vec::new();
         for (ji, e) in sets.joints.slots().iter().enumerate() {
             let Some(e) = e else { continue };
             let b = &e.joint.behaviour;
@@ -70,7 +125,15 @@ impl RapierBackend {
             let x: [Real; 6] = core::array::from_fn(|k| {
                 m[k] - b.reference[k].unwrap_or(e.initial[k]) + lead * rate[k]
             });
-            let forces = b.forces(&x, &rate, e.joint.kind.free());
+            let mut forces = b.forces(&x, &rate, e.joint.kind.free());
+            // Springs too stiff for a force held over the call become Rapier motors.
+            for (k, kk, cc) in stiff_dofs(sets, e, &rows, span) {
+                forces.spring[k] += kk * x[k];
+                forces.damper[k] += cc * rate[k];
+                let target = b.reference[k].unwrap_or(e.initial[k]) - e.initial[k];
+                motors.push((e.rapier, super::stops::rapier_axis(e, k), target, kk, cc));
+                sets.ledger.dissipated += cc * rate[k] * rate[k] * span;
+            }
             let mut total: [Real; 6] =
                 core::array::from_fn(|k| forces.spring[k] + forces.damper[k]);
             for (d, r) in forces.damper.iter().zip(&rate) {
@@ -88,6 +151,13 @@ impl RapierBackend {
                 }
             }
             element.push((ji, total));
+        }
+        for (rapier, axis, target, stiffness, damping) in motors {
+            if let Some(data) = super::stops::joint_data(sets.physics, &rapier) {
+                let axis = AXES[axis];
+                data.set_motor_model(axis, MotorModel::ForceBased);
+                data.set_motor(axis, target, 0.0, stiffness, damping);
+            }
         }
         for (ji, total) in element {
             if let Some(Some(e)) = sets.joints.slots_mut().get_mut(ji) {
