@@ -15,25 +15,16 @@
 
 use crate::drive::Drive;
 use crate::math::Real;
-use crate::math::rapier::dynamics::{JointAxis, MotorModel, RigidBodyHandle};
+use crate::math::rapier::dynamics::{MotorModel, RigidBodyHandle};
 use crate::rows::{FramePair, RowEval, RowKind};
 
 use super::super::Sets;
-use super::RapierBackend;
 use super::stops::{displace, joint_data, rapier_axis, response};
+use super::{AXES, RapierBackend};
 
 /// The motor's damping (N s/m or N m s/rad): far above any mechanism's own, so that Rapier's
 /// implicit motor holds the rate to its solver's tolerance.
 const MOTOR_DAMPING: Real = 1e9;
-
-const AXES: [JointAxis; 6] = [
-    JointAxis::LinX,
-    JointAxis::LinY,
-    JointAxis::LinZ,
-    JointAxis::AngX,
-    JointAxis::AngY,
-    JointAxis::AngZ,
-];
 
 /// The drive's mean rate over `[t0, t1]` (m/s or rad/s).
 pub(super) fn mean_rate(d: &Drive, t0: Real, t1: Real) -> Real {

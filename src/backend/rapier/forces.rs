@@ -21,23 +21,14 @@
 
 use crate::behaviour::dof_rows;
 use crate::dof::Dof;
+use crate::math::rapier::dynamics::MotorModel;
 use crate::math::rapier::dynamics::RigidBodyHandle;
-use crate::math::rapier::dynamics::{JointAxis, MotorModel};
 use crate::math::{Real, Vector};
 use crate::rows::FramePair;
 use crate::spring::Side;
 
 use super::super::Sets;
-use super::RapierBackend;
-
-const AXES: [JointAxis; 6] = [
-    JointAxis::LinX,
-    JointAxis::LinY,
-    JointAxis::LinZ,
-    JointAxis::AngX,
-    JointAxis::AngY,
-    JointAxis::AngZ,
-];
+use super::{AXES, RapierBackend};
 
 /// The DOFs whose linear spring is too stiff for a force held over a call of `span` s:
 /// `K span^2 > m_eff` (`omega span > 1`, half the explicit limit) with `m_eff` the DOF's

@@ -9,18 +9,10 @@ use crate::behaviour::Friction;
 use crate::catalogue::JointKind;
 use crate::joint::Mpc184Joint;
 use crate::joint_set::RapierJoint;
-use crate::math::rapier::dynamics::{JointAxis, MotorModel};
+use crate::math::rapier::dynamics::MotorModel;
 
 use super::super::{Sets, lower};
-
-const AXES: [JointAxis; 6] = [
-    JointAxis::LinX,
-    JointAxis::LinY,
-    JointAxis::LinZ,
-    JointAxis::AngX,
-    JointAxis::AngY,
-    JointAxis::AngZ,
-];
+use super::AXES;
 
 /// True when the joint's friction is one a Rapier motor approximates: a joint with a single
 /// friction DOF (revolute, slot, translational), not a screw.

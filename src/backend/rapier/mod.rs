@@ -31,7 +31,7 @@ mod stops;
 use crate::error::{Error, JointId};
 use crate::joint_set::RapierJoint;
 use crate::math::rapier::dynamics::{
-    GenericJoint, MultibodyJointSet, RigidBody, RigidBodyBuilder, RigidBodyHandle,
+    GenericJoint, JointAxis, MultibodyJointSet, RigidBody, RigidBodyBuilder, RigidBodyHandle,
 };
 use crate::math::rapier::pipeline::PhysicsWorld;
 use crate::math::{Pose, Real, Vector};
@@ -39,6 +39,16 @@ use crate::solver::dense;
 use crate::solver::kkt::KktSolver;
 
 use super::Sets;
+
+/// Rapier's joint axes in its own order (linear X, Y, Z, angular X, Y, Z).
+const AXES: [JointAxis; 6] = [
+    JointAxis::LinX,
+    JointAxis::LinY,
+    JointAxis::LinZ,
+    JointAxis::AngX,
+    JointAxis::AngY,
+    JointAxis::AngZ,
+];
 
 /// One body's state at the start of the last substep (for the reaction recovery).
 #[derive(Clone, Copy, Debug, Default)]

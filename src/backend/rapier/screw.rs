@@ -157,12 +157,5 @@ fn couple_multibody(
         mb.generalized_velocity_mut()[k] -= m * rate / cmc;
     }
     let disp: Vec<Real> = minv_c.iter().map(|m| -m * row.value / cmc).collect();
-    mb.apply_displacements(&disp);
-    mb.forward_kinematics(bodies, false);
-    for l in mb.links() {
-        let pose = *l.local_to_world();
-        if let Some(rb) = sets.physics.bodies.get_mut(l.rigid_body_handle()) {
-            rb.set_position(pose, true);
-        }
-    }
+    super::stops::displace_multibody(mb, &mut sets.physics.bodies, &disp);
 }

@@ -30,23 +30,14 @@
 use crate::behaviour::dof_rows;
 use crate::joint::ConstraintMethod;
 use crate::joint_set::{JointEntry, RapierJoint};
-use crate::math::rapier::dynamics::{GenericJoint, JointAxis, RigidBodyHandle, RigidBodySet};
+use crate::math::rapier::dynamics::{GenericJoint, RigidBodyHandle, RigidBodySet};
 use crate::math::rapier::pipeline::PhysicsWorld;
 use crate::math::{Real, Vector};
 use crate::rows::{FramePair, RowEval};
 use crate::solver::dense;
 
 use super::super::{Sets, lower};
-use super::RapierBackend;
-
-const AXES: [JointAxis; 6] = [
-    JointAxis::LinX,
-    JointAxis::LinY,
-    JointAxis::LinZ,
-    JointAxis::AngX,
-    JointAxis::AngY,
-    JointAxis::AngZ,
-];
+use super::{AXES, RapierBackend};
 
 /// A stop DOF's state at the start of a Rapier call.
 pub(super) struct Approach {
@@ -330,18 +321,15 @@ impl RapierBackend {
         let RapierJoint::Multibody(h) = rapier else {
             return;
         };
-        let bodies = &sets.physics.bodies;
         let Some((mb, link)) = sets.physics.multibody_joints.get_mut(h) else {
             return;
         };
         let Some(l) = mb.link(link) else {
             return;
         };
-        let free_axes = !l.joint.data.locked_axes.bits() & 0x3f;
-        if free_axes & (1 << axis) == 0 {
+        let Some(index) = coordinate_index(l, axis) else {
             return;
-        }
-        let index = l.assembly_id() + (0..axis).filter(|a| free_axes & (1 << a) != 0).count();
+        };
         let n = mb.generalized_velocity().len();
         if index >= n {
             return;
@@ -350,14 +338,7 @@ impl RapierBackend {
         if disp != 0.0 {
             let mut d = vec![0.0 as Real; n];
             d[index] = disp;
-            mb.apply_displacements(&d);
-            mb.forward_kinematics(bodies, false);
-            for l in mb.links() {
-                let pose = *l.local_to_world();
-                if let Some(rb) = sets.physics.bodies.get_mut(l.rigid_body_handle()) {
-                    rb.set_position(pose, true);
-                }
-            }
+            displace_multibody(mb, &mut sets.physics.bodies, &d);
         }
     }
 
@@ -382,12 +363,9 @@ impl RapierBackend {
         let Some(l) = mb.link(link) else {
             return;
         };
-        // The joint's coordinates follow its free Rapier axes in order.
-        let free_axes = !l.joint.data.locked_axes.bits() & 0x3f;
-        if free_axes & (1 << axis) == 0 {
+        let Some(index) = coordinate_index(l, axis) else {
             return;
-        }
-        let index = l.assembly_id() + (0..axis).filter(|a| free_axes & (1 << a) != 0).count();
+        };
         let qd = mb.generalized_velocity().clone_owned();
         if index >= qd.len() {
             return;
@@ -419,14 +397,7 @@ impl RapierBackend {
         if past != 0.0 {
             let mut disp = vec![0.0 as Real; qd.len()];
             disp[index] = -past;
-            mb.apply_displacements(&disp);
-            mb.forward_kinematics(bodies, false);
-            for l in mb.links() {
-                let pose = *l.local_to_world();
-                if let Some(rb) = sets.physics.bodies.get_mut(l.rigid_body_handle()) {
-                    rb.set_position(pose, true);
-                }
-            }
+            displace_multibody(mb, &mut sets.physics.bodies, &disp);
         }
     }
 }
@@ -505,4 +476,31 @@ pub(super) fn displace(bodies: &mut RigidBodySet, b: RigidBodyHandle, dl: Vector
 /// to date at its next step, and the latching moves bodies between steps).
 fn com(rb: &crate::math::rapier::dynamics::RigidBody) -> Vector {
     *rb.position() * rb.mass_properties().local_mprops.local_com
+}
+
+/// The index among a multibody's generalized coordinates of Rapier axis `axis` of a link's
+/// joint (its coordinates follow its free axes in order); `None` for a locked axis.
+fn coordinate_index(
+    l: &crate::math::rapier::dynamics::MultibodyLink,
+    axis: usize,
+) -> Option<usize> {
+    let free_axes = !l.joint.data.locked_axes.bits() & 0x3f;
+    (free_axes & (1 << axis) != 0)
+        .then(|| l.assembly_id() + (0..axis).filter(|a| free_axes & (1 << a) != 0).count())
+}
+
+/// Moves a multibody's coordinates by `disp` and puts its links' bodies at their new poses
+/// (Rapier would only at its next step).
+pub(super) fn displace_multibody(
+    mb: &mut crate::math::rapier::dynamics::Multibody,
+    bodies: &mut RigidBodySet,
+    disp: &[Real],
+) {
+    mb.apply_displacements(disp);
+    mb.forward_kinematics(bodies, false);
+    for l in mb.links() {
+        if let Some(rb) = bodies.get_mut(l.rigid_body_handle()) {
+            rb.set_position(*l.local_to_world(), true);
+        }
+    }
 }
