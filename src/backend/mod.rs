@@ -3,8 +3,8 @@
 //! | [`Backend`] | module | joints are | reactions from | behaviour (stops, locks, springs, drives, loads) |
 //! |---|---|---|---|---|
 //! | `Lagrange` (default) | [`lagrange`] | this crate's rows, solved with Lagrange multipliers (penalty rows for KEYOPT(2) = 1) around one Rapier call per substep | the multipliers | all, exact |
-//! | `RapierImpulse` | [`rapier`] | Rapier impulse joints ([`lower`]) | momentum balance over the last substep | friction on a single-DOF joint (force-capped motor); loads (`FJ`) as user forces per Rapier call |
-//! | `RapierMultibody` | [`rapier`] | Rapier multibody joints (trees) | the same | the same |
+//! | `RapierImpulse` | [`rapier`] | Rapier impulse joints ([`lower`]; the screw as a cylindrical joint) | momentum balance over the step | around each Rapier call, with the error measured in `tests/rapier_*.rs`: stops (Rapier limits with restitution), locks (latched, then closed limits), springs and dampers (forces; stiff ones as motors), drives (motors put on their value after the call), the screw coupling (a mass-metric projection), loads (`FJ`) as user forces, friction on a single-DOF joint (a force-capped motor) |
+//! | `RapierMultibody` | [`rapier`] | Rapier multibody joints (trees) | momentum balance over the last substep | the same, on the joints' own generalized coordinates where a correction is needed |
 //!
 //! [`JointBackend`] is the only place that matches on [`Backend`]: it admits a joint (what the
 //! backend can impose), attaches it (the Rapier joint that links its bodies), steps the world,

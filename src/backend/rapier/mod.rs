@@ -20,6 +20,21 @@
 //! halfway through the span (the constraint forces turn with the bodies over it). This
 //! sidesteps Rapier's `ImpulseJoint::impulses`, which are coefficients in a Gram-Schmidt-skewed
 //! basis of the last substep only, and works for multibody joints, which write no impulses back.
+//!
+//! MPC184's behaviour runs around each Rapier call, in this order:
+//!
+//! | before the call | the call | after the call | file |
+//! |---|---|---|---|
+//! | springs, dampers, loads and spring-dampers as user forces; stiff springs as motors | | | [`forces`] |
+//! | stops' limits set, the stop DOFs' rates and energy recorded | Rapier's limits (plastic) | restitution through the joint, locks latched | [`stops`] |
+//! | | | the screw coupling projected | [`screw`] |
+//! | drives' velocity motors | the motors | drives put on their value and rate | [`drives`] |
+//! | friction motors (once per step) | the motors | | [`friction`] |
+//!
+//! A correction "through the joint" is the mass-metric response of the joint's two bodies to a
+//! unit change of one row's rate that leaves the joint's constrained rows alone
+//! (`stops::response`); on the multibody backend it acts on the joint's own generalized
+//! coordinate instead.
 
 mod drives;
 mod forces;
