@@ -37,7 +37,7 @@
 //! - [`Mpc184World`] (bodies, joints, springs, drives, loads, stepping, energy, output) and
 //!   [`settings`] (time step, substeps, backend, integrator);
 //! - [`deck`] (APDL input decks: parse, build, run load steps);
-//! - [`ecs`] (features `ecs` and `bevy`: the `bevy_ecs` and `bevy_app` plugins).
+//! - `ecs` (features `ecs` and `bevy`: the `bevy_ecs` and `bevy_app` plugins).
 //!
 //! Features: `f64` (default), `f32`, `ecs`, `bevy`, `serde-snapshot`, `parallel`, `charts`; the
 //! `mpc184` command is the workspace member `cli/`. The README has the measured accuracy and
