@@ -176,8 +176,8 @@ pub enum Error {
         /// What diverged.
         reason: String,
     },
-    /// A world snapshot that could not be written or read (see
-    /// [`crate::Mpc184World::snapshot`]).
+    /// A world snapshot that could not be written or read (see `Mpc184World::snapshot`,
+    /// feature `serde-snapshot`).
     #[error("snapshot: {reason}")]
     Snapshot {
         /// What is wrong.
