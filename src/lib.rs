@@ -115,9 +115,9 @@ pub mod prelude {
     pub use crate::joint::{ConstraintMethod, Mpc184Joint};
     pub use crate::math::{Real, Rotation, Vector};
     pub use crate::output::{EnergyReport, JointOutput};
-    pub use crate::settings::{Backend, Integrator, WorldSettings};
+    pub use crate::settings::{Backend, Integrator, StepControl, WorldSettings};
     #[cfg(feature = "serde-snapshot")]
     pub use crate::snapshot::Snapshot;
     pub use crate::spring::{SpringDamper, SpringId, SpringOutput};
-    pub use crate::world::{DriveLevel, DriveProfile, Mpc184World};
+    pub use crate::world::{DriveLevel, DriveProfile, Mpc184World, StepStats};
 }

@@ -18,6 +18,33 @@ pub struct WorldSettings {
     /// Euler; [`Integrator::Rattle`] is second order). The Rapier backends ignore it.
     #[serde(default)]
     pub integrator: Integrator,
+    /// How each step chooses its substeps (default: [`StepControl::Fixed`], `substeps` of them).
+    #[serde(default)]
+    pub control: StepControl,
+}
+
+/// How a step chooses its substeps. Each `step()` advances exactly `dt` either way (a game's
+/// and the ECS's frame clock stays), only the substeps inside it change.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+#[doc(alias = "AUTOTS")]
+pub enum StepControl {
+    /// `substeps` substeps every step (the default).
+    #[default]
+    Fixed,
+    /// Step doubling to a tolerance: the step is taken with `n` and with `2 n` substeps from
+    /// the same state (the checkpoint restores it bit for bit); the difference of the bodies'
+    /// positions (rotations times the model size), over `2^p - 1` for the scheme's order `p`
+    /// (2 for RATTLE, else 1), estimates the error of the `2 n` result, which is kept when the
+    /// estimate is within `tolerance`; otherwise `n` doubles and the step is taken again, up to
+    /// `max_substeps`. `n` starts at `substeps` and follows the estimate from step to step
+    /// (halved when even the `n` result would have passed). Costs about three times a fixed
+    /// step of `n` substeps; [`crate::Mpc184World::step_stats`] counts the steps and retries.
+    Adaptive {
+        /// Largest estimated position error per step (m).
+        tolerance: Real,
+        /// Most substeps per step (a step that needs more is kept with a note in the stats).
+        max_substeps: usize,
+    },
 }
 
 /// Time integration of jointed bodies on the Lagrange backend.
@@ -65,6 +92,7 @@ impl Default for WorldSettings {
             substeps: 4,
             backend: Backend::default(),
             integrator: Integrator::default(),
+            control: StepControl::Fixed,
         }
     }
 }

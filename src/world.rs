@@ -19,9 +19,9 @@ use crate::joint::Mpc184Joint;
 use crate::joint_set::{JointEntry, JointSet};
 use crate::math::rapier::dynamics::RigidBodyHandle;
 use crate::math::rapier::pipeline::PhysicsWorld;
-use crate::math::{Real, Vector};
+use crate::math::{Real, Rotation, Vector};
 pub use crate::output::{EnergyReport, JointOutput};
-pub use crate::settings::{Integrator, WorldSettings};
+pub use crate::settings::{Integrator, StepControl, WorldSettings};
 use crate::spring::{SpringDamper, SpringEntry, SpringId, SpringOutput, SpringSet};
 use crate::statics::{StaticReport, StaticState};
 
@@ -46,6 +46,32 @@ pub(crate) struct Core {
     pub(crate) model_size: Option<Real>,
     /// State of the static (position) analysis.
     pub(crate) statics: StaticState,
+    /// What the adaptive step control did so far (outside [`Progress`]: a retry restores that).
+    #[cfg_attr(feature = "serde-snapshot", serde(default))]
+    pub(crate) stats: StepStats,
+}
+
+/// What [`StepControl::Adaptive`] did so far ([`Mpc184World::step_stats`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[cfg_attr(
+    feature = "serde-snapshot",
+    derive(serde::Serialize, serde::Deserialize)
+)]
+pub struct StepStats {
+    /// Steps taken (each with the `n` and `2 n` runs of its last try).
+    pub accepted: u64,
+    /// Tries taken again with twice the substeps (the error estimate was over the tolerance).
+    pub rejected: u64,
+    /// Steps kept at `max_substeps` with the estimate still over the tolerance.
+    pub unmet: u64,
+    /// The smallest and largest substep kept (s; 0 before the first step).
+    pub smallest_substep: Real,
+    /// See `smallest_substep`.
+    pub largest_substep: Real,
+    /// The error estimate of the last step (m).
+    pub last_estimate: Real,
+    /// The `n` the next step starts with (0: the settings' substeps).
+    next: usize,
 }
 
 impl Core {
@@ -548,7 +574,14 @@ impl Mpc184World {
             self.core.progress.scale_with(&e, floor);
             (e, floor)
         });
-        let result = self.step_unchecked(dt, n).and_then(|()| match before {
+        let stepped = match self.core.settings.control {
+            StepControl::Fixed => self.step_unchecked(dt, n),
+            StepControl::Adaptive {
+                tolerance,
+                max_substeps,
+            } => self.step_adaptive(dt, tolerance, max_substeps),
+        };
+        let result = stepped.and_then(|()| match before {
             Some((e, floor)) => self.energy_guard(&e, floor),
             None => Ok(()),
         });
@@ -651,6 +684,83 @@ impl Mpc184World {
         self.refresh_outputs();
         self.core.progress.ledger.work += start.work(&self.physics.bodies, &self.core.joints, dt);
         self.bounds().check(&self.core.joints, self.time())
+    }
+
+    /// What the adaptive step control did so far (all zero with [`StepControl::Fixed`]).
+    pub fn step_stats(&self) -> StepStats {
+        self.core.stats
+    }
+
+    /// One step of `dt` by step doubling (see [`StepControl::Adaptive`]).
+    fn step_adaptive(
+        &mut self,
+        dt: Real,
+        tolerance: Real,
+        max_substeps: usize,
+    ) -> Result<(), Error> {
+        let order = self.backend.order(self.core.settings.integrator);
+        let max = max_substeps.max(2);
+        let stats = &mut self.core.stats;
+        let mut n = if stats.next == 0 {
+            self.core.settings.substeps
+        } else {
+            stats.next
+        }
+        .clamp(1, max / 2);
+        let size = self.model_size();
+        loop {
+            self.step_unchecked(dt, n)?;
+            let coarse = self.dynamic_poses();
+            self.restore_checkpoint();
+            self.step_unchecked(dt, 2 * n)?;
+            let diff = coarse
+                .iter()
+                .zip(self.dynamic_poses())
+                .map(|(a, b)| (a.0 - b.0).length() + size * a.1.angle_between(b.1))
+                .fold(0.0 as Real, Real::max);
+            let estimate = diff / ((1 << order) - 1) as Real;
+            let stats = &mut self.core.stats;
+            if estimate <= tolerance || 2 * n >= max {
+                let h = dt / (2 * n) as Real;
+                stats.accepted += 1;
+                stats.unmet += u64::from(estimate > tolerance);
+                stats.last_estimate = estimate;
+                stats.smallest_substep = if stats.smallest_substep == 0.0 {
+                    h
+                } else {
+                    stats.smallest_substep.min(h)
+                };
+                stats.largest_substep = stats.largest_substep.max(h);
+                // The n run alone would have passed (its error is about 2^p times the
+                // estimate): the next step starts at half.
+                stats.next = if estimate * (1 << order) as Real <= tolerance {
+                    (n / 2).max(1)
+                } else {
+                    n
+                };
+                return Ok(());
+            }
+            stats.rejected += 1;
+            self.restore_checkpoint();
+            n *= 2;
+        }
+    }
+
+    /// The dynamic bodies' centres of mass and orientations, in the body set's order.
+    fn dynamic_poses(&self) -> Vec<(Vector, Rotation)> {
+        self.physics
+            .bodies
+            .iter()
+            .filter(|(_, rb)| rb.is_dynamic())
+            .map(|(_, rb)| (rb.center_of_mass(), rb.position().rotation))
+            .collect()
+    }
+
+    /// Puts the state of the step's start back (the checkpoint stays for another try).
+    fn restore_checkpoint(&mut self) {
+        self.core.progress =
+            self.checkpoint
+                .restore(&mut self.physics, &mut self.core.joints, &mut self.backend);
     }
 
     /// One static step (ANSYS `ANTYPE,STATIC`, see [`crate::statics`]): the time advances by

@@ -128,6 +128,15 @@ impl JointBackend {
         }
     }
 
+    /// The order of accuracy of a step with `integrator` (2 for RATTLE on the Lagrange
+    /// backend; the Rapier backends and the first-order scheme: 1).
+    pub(crate) fn order(&self, integrator: Integrator) -> u32 {
+        match (self, integrator) {
+            (JointBackend::Lagrange(_), Integrator::Rattle) => 2,
+            _ => 1,
+        }
+    }
+
     /// `Ok` if the backend does `what`, else [`Error::Unsupported`] saying which backend does.
     pub(crate) fn require(&self, what: Capability) -> Result<(), Error> {
         match self {
@@ -276,7 +285,8 @@ impl JointBackend {
 
     /// Puts back what [`JointBackend::save`] saved, and invalidates the rest.
     pub(crate) fn restore(&mut self, physics: &mut PhysicsWorld, saved: &mut BackendSave) {
-        if let (JointBackend::Rapier(r), Some(s)) = (&mut *self, saved.rapier.take()) {
+        // A clone, not a take: the adaptive step control restores the same checkpoint again.
+        if let (JointBackend::Rapier(r), Some(s)) = (&mut *self, saved.rapier.clone()) {
             r.restore(physics, s);
         }
         self.invalidate();

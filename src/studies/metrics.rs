@@ -144,6 +144,7 @@ pub fn pendulum_study_with(
         substeps: 1,
         backend,
         integrator,
+        ..WorldSettings::default()
     };
     let mut p = scenes::pendulum(settings, axis, 1.0, theta0, 1.0, 1e-4)?;
     let exact = pendulum_period(p.pivot_inertia(), p.mass, G, p.length, theta0);
@@ -183,6 +184,7 @@ pub fn pendulum_study_with(
             substeps,
             backend,
             integrator,
+            ..WorldSettings::default()
         },
         axis,
         1.0,

@@ -111,6 +111,7 @@ pub(crate) struct RapierBackend {
 
 /// What a step changes in the Rapier backends beyond the bodies: the multibody set (its
 /// generalized coordinates and velocities) and the start flag.
+#[derive(Clone)]
 pub(crate) struct RapierSave {
     started: bool,
     multibody: Option<MultibodyJointSet>,

@@ -298,6 +298,7 @@ impl DeckModel {
             substeps: options.substeps,
             backend: options.backend,
             integrator: options.integrator,
+            ..WorldSettings::default()
         });
         world.physics.gravity = Vector::ZERO;
         let used = rigid_groups::used_nodes(deck, &constraints);
