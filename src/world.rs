@@ -558,6 +558,7 @@ impl Mpc184World {
                 reason: "dt must be positive and substeps at least 1",
             });
         }
+        check_control(self.core.settings.control)?;
         let g = self.physics.gravity;
         if !g.is_finite() {
             return Err(Error::InvalidSetting {
@@ -686,6 +687,18 @@ impl Mpc184World {
         self.bounds().check(&self.core.joints, self.time())
     }
 
+    /// Sets how the coming steps choose their substeps (ANSYS `AUTOTS`; see [`StepControl`]).
+    ///
+    /// # Errors
+    /// [`Error::InvalidSetting`] for a tolerance that is not positive and finite, or
+    /// `max_substeps` outside 2..=2^20 (the world is left unchanged).
+    #[doc(alias = "AUTOTS")]
+    pub fn set_step_control(&mut self, control: StepControl) -> Result<(), Error> {
+        check_control(control)?;
+        self.core.settings.control = control;
+        Ok(())
+    }
+
     /// What the adaptive step control did so far (all zero with [`StepControl::Fixed`]).
     pub fn step_stats(&self) -> StepStats {
         self.core.stats
@@ -719,6 +732,13 @@ impl Mpc184World {
                 .map(|(a, b)| (a.0 - b.0).length() + size * a.1.angle_between(b.1))
                 .fold(0.0 as Real, Real::max);
             let estimate = diff / ((1 << order) - 1) as Real;
+            if !estimate.is_finite() {
+                return Err(Error::Diverged {
+                    time: self.time(),
+                    joint: None,
+                    reason: "the step-doubling error estimate is not finite".into(),
+                });
+            }
             let stats = &mut self.core.stats;
             if estimate <= tolerance || 2 * n >= max {
                 let h = dt / (2 * n) as Real;
@@ -742,7 +762,8 @@ impl Mpc184World {
             }
             stats.rejected += 1;
             self.restore_checkpoint();
-            n *= 2;
+            // Twice the substeps, at most `max` in the kept run.
+            n = (2 * n).min(max / 2);
         }
     }
 
@@ -884,4 +905,29 @@ impl Mpc184World {
             other => other,
         }
     }
+}
+
+/// A step control's values are usable (see [`Mpc184World::set_step_control`]).
+fn check_control(control: StepControl) -> Result<(), Error> {
+    if let StepControl::Adaptive {
+        tolerance,
+        max_substeps,
+    } = control
+    {
+        if !(tolerance.is_finite() && tolerance > 0.0) {
+            return Err(Error::InvalidSetting {
+                field: "control.tolerance",
+                value: tolerance,
+                reason: "the tolerance must be positive and finite",
+            });
+        }
+        if !(2..=1 << 20).contains(&max_substeps) {
+            return Err(Error::InvalidSetting {
+                field: "control.max_substeps",
+                value: max_substeps as Real,
+                reason: "step doubling needs 2 to 2^20 substeps",
+            });
+        }
+    }
+    Ok(())
 }

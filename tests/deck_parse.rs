@@ -592,6 +592,7 @@ fn every_shipped_deck_parses() {
             "friction_incline",
             "general_rdof",
             "link_swing",
+            "pendulum_autots",
             "pendulum_x",
             "pendulum_z",
             "screw_jack",

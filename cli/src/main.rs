@@ -590,8 +590,23 @@ fn print_summary(
     );
     let settings = model.world.settings();
     let fallback = model.world.lagrange_diagnostics().first_order_steps;
+    let stats = model.world.step_stats();
+    let substeps = if stats.accepted > 0 {
+        // AUTOTS: what the step doubling chose.
+        format!(
+            "automatic time stepping: {} steps, {} retried with more substeps, substeps from \
+             {:.4e} to {:.4e} s, {} step(s) at the dtmin limit over the tolerance",
+            stats.accepted,
+            stats.rejected,
+            stats.smallest_substep,
+            stats.largest_substep,
+            stats.unmet
+        )
+    } else {
+        format!("{} substeps per step", settings.substeps)
+    };
     println!(
-        "backend {}, {} integrator{}, {} substeps per step",
+        "backend {}, {} integrator{}, {substeps}",
         settings.backend.name(),
         settings.integrator.name(),
         if fallback > 0 {
@@ -599,7 +614,6 @@ fn print_summary(
         } else {
             String::new()
         },
-        settings.substeps
     );
     println!(
         "{:>6} {:<14} {:>10} {:>10} {:>10} {:>10} {:>10} {:>10} {:>11} {:>11} {:>4} {:>4}",

@@ -919,6 +919,14 @@ pub struct LoadStep {
     pub deltim: Option<TimeIncrement>,
     /// `NSUBST` in effect (default: none).
     pub nsubst: Option<Substeps>,
+    /// `AUTOTS` in effect (default: off): the substeps of each step are chosen to a tolerance.
+    #[doc(alias = "AUTOTS")]
+    #[serde(default)]
+    pub autots: bool,
+    /// `MIDTOL,ON,TOLERB` in effect (`Some(None)`: on with the default tolerance).
+    #[doc(alias = "MIDTOL")]
+    #[serde(default)]
+    pub midtol: Option<Option<f64>>,
     /// `KBC` in effect (default: ramped).
     pub kbc: LoadRamp,
     /// `ANTYPE` in effect (default: static).

@@ -88,7 +88,7 @@ const COMMANDS: &[&str] = &[
     "SECNUM", "R", "RMORE", "N", "E", "EN", "CERIG", "SECTYPE", "SECJOINT", "SECSTOP", "SECLOCK",
     "SECDATA", "LOCAL", "CSYS", "TB", "TBTEMP", "TBDATA", "TBPT", "D", "F", "DJ", "FJ", "DDELE",
     "FDELE", "DJDELE", "FJDELE", "ACEL", "IC", "ANTYPE", "TIME", "DELTIM", "NSUBST", "KBC",
-    "SOLVE", "*SET", "*AFUN", "ALLSEL",
+    "AUTOTS", "MIDTOL", "SOLVE", "*SET", "*AFUN", "ALLSEL",
 ];
 
 fn canonical(name: &str) -> Option<&'static str> {
@@ -143,6 +143,10 @@ struct Reader {
     time: Option<f64>,
     deltim: Option<TimeIncrement>,
     nsubst: Option<Substeps>,
+    /// `AUTOTS` in effect (default off).
+    autots: bool,
+    /// `MIDTOL,ON[,tol]` in effect (`Some(None)`: on with its default).
+    midtol: Option<Option<f64>>,
     kbc: LoadRamp,
     antype: AnalysisType,
     loads_since_solve: Option<usize>,
@@ -176,6 +180,8 @@ impl Reader {
             time: None,
             deltim: None,
             nsubst: None,
+            autots: false,
+            midtol: None,
             kbc: LoadRamp::Ramped,
             antype: AnalysisType::Static,
             loads_since_solve: None,
@@ -418,7 +424,7 @@ impl Reader {
                 Ok(())
             }
             "ANTYPE" => self.antype(),
-            "TIME" | "DELTIM" | "NSUBST" | "KBC" => self.time_stepping(cmd),
+            "TIME" | "DELTIM" | "NSUBST" | "KBC" | "AUTOTS" | "MIDTOL" => self.time_stepping(cmd),
             "SOLVE" => self.solve(),
             _ => Err(self.unknown_command(cmd)),
         }
@@ -510,7 +516,7 @@ impl Reader {
         }
     }
 
-    /// The load step's time stepping (`TIME`, `DELTIM`, `NSUBST`, `KBC`).
+    /// The load step's time stepping (`TIME`, `DELTIM`, `NSUBST`, `KBC`, `AUTOTS`, `MIDTOL`).
     fn time_stepping(&mut self, cmd: &str) -> Res<()> {
         match cmd {
             "TIME" => {
@@ -536,6 +542,35 @@ impl Reader {
                 let (max, min) = (self.id(2)?, self.id(3)?);
                 self.nsubst = Some(Substeps { n, max, min });
                 self.deltim = None;
+                Ok(())
+            }
+            // AUTOTS,Key: ON or 1 (the default when blank), OFF or 0; PROG is ON here.
+            "AUTOTS" => {
+                self.autots = match self.raw(1).map(str::to_ascii_uppercase).as_deref() {
+                    None | Some("ON" | "1" | "PROG") => true,
+                    Some("OFF" | "0") => false,
+                    Some(other) => {
+                        return Err(
+                            self.invalid(1, format!("AUTOTS is ON, OFF or PROG, got {other}"))
+                        );
+                    }
+                };
+                Ok(())
+            }
+            // MIDTOL,Key,TOLERB: ON (or blank) with an optional tolerance, OFF.
+            "MIDTOL" => {
+                let on = match self.raw(1).map(str::to_ascii_uppercase).as_deref() {
+                    None | Some("ON" | "1") => true,
+                    Some("OFF" | "0") => false,
+                    Some(other) => {
+                        return Err(self.invalid(1, format!("MIDTOL is ON or OFF, got {other}")));
+                    }
+                };
+                let tol = self.num(2)?;
+                if tol.is_some_and(|t| t == 0.0 || !t.is_finite()) {
+                    return Err(self.invalid(2, "MIDTOL's tolerance must be nonzero"));
+                }
+                self.midtol = on.then_some(tol);
                 Ok(())
             }
             "KBC" => {
@@ -1526,6 +1561,8 @@ impl Reader {
             end_time,
             deltim: self.deltim,
             nsubst: self.nsubst,
+            autots: self.autots,
+            midtol: self.midtol,
             kbc: self.kbc,
             antype: self.antype,
             d: self.loads.d.values().copied().collect(),

@@ -24,7 +24,7 @@
 //! | frames | `LOCAL,n,0,x,y,z,thxy,thyz,thzx` (Cartesian, degrees), `CSYS` |
 //! | materials | `TB,JOIN,mat,1,npts,TBOPT`, `TBTEMP`, `TBDATA`, `TBPT` |
 //! | loads | `D F DJ FJ DDELE FDELE DJDELE FJDELE ACEL IC` |
-//! | analysis | `ANTYPE,STATIC\|TRANS`, `TIME`, `DELTIM`, `NSUBST`, `KBC`, `SOLVE` (one [`LoadStep`] each) |
+//! | analysis | `ANTYPE,STATIC\|TRANS`, `TIME`, `DELTIM`, `NSUBST`, `KBC`, `AUTOTS`, `MIDTOL`, `SOLVE` (one [`LoadStep`] each; `AUTOTS,ON` chooses the substeps by step doubling, see [`StepPlan::autots`]) |
 //!
 //! Anything else is an error ([`DeckErrorKind::Unsupported`], with a hint). Errors display as
 //! `FILE:LINE: COMMAND: what is wrong`.
@@ -64,5 +64,6 @@ pub use crate::apdl::{
 pub use crate::apdl::{AngleUnit, DeckError, DeckErrorKind, ExprError, MAX_DEPTH, evaluate};
 pub use crate::apdl::{parse_file, parse_str};
 pub use build::{
-    BuildOptions, DeckBody, DeckJoint, DeckModel, FrictionData, POINT_MASS_INERTIA, StepPlan,
+    AUTOTS_TOLERANCE, BuildOptions, DeckBody, DeckJoint, DeckModel, FrictionData,
+    POINT_MASS_INERTIA, StepPlan,
 };

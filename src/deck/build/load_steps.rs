@@ -4,16 +4,16 @@
 
 use std::collections::BTreeMap;
 
-use crate::apdl::{Deck, MotionKind};
+use crate::apdl::{Deck, MotionKind, Substeps, TimeIncrement};
 use crate::dof::Dof;
 use crate::error::{Error, JointId};
 use crate::math::{Real, Vector};
-use crate::settings::Backend;
+use crate::settings::{Backend, StepControl};
 use crate::world::{DriveLevel, Mpc184World};
 
 use super::{
-    DeckJoint, DeckModel, NodalDrive, NodalLoad, StepPlan, at_line, dof_of, invalid, profile,
-    unsupported,
+    AUTOTS_TOLERANCE, DeckJoint, DeckModel, NodalDrive, NodalLoad, StepPlan, at_line, dof_of,
+    invalid, profile, unsupported,
 };
 
 /// A load step's time span and load ramp (`KBC`).
@@ -47,6 +47,19 @@ impl DeckModel {
             });
         };
         self.world.set_dt(plan.dt as Real);
+        let control = match plan.autots {
+            // A positive tolerance is a fraction of the model size, a negative one metres.
+            Some((tol, max_substeps)) => StepControl::Adaptive {
+                tolerance: if tol > 0.0 {
+                    tol as Real * self.world.model_size()
+                } else {
+                    -tol as Real
+                },
+                max_substeps,
+            },
+            None => StepControl::Fixed,
+        };
+        self.world.set_step_control(control)?;
         let span = Span {
             start: plan.start,
             end: plan.end,
@@ -265,7 +278,28 @@ impl DeckModel {
         }
         let t = self.world.time() + 0.5 * self.world.settings().dt;
         self.apply_time_loads(t);
-        self.world.step()
+        let unmet = self.world.step_stats().unmet;
+        self.world.step()?;
+        let stats = self.world.step_stats();
+        if stats.unmet > unmet {
+            // AUTOTS: the tolerance needs a substep below the load step's minimum (ANSYS stops
+            // there too). The step's rows are not written; the joint named is the first.
+            let tolerance = match self.world.settings().control {
+                StepControl::Adaptive { tolerance, .. } => tolerance,
+                StepControl::Fixed => 0.0,
+            };
+            return Err(Error::Diverged {
+                time: self.world.time() - self.world.settings().dt,
+                joint: self.joints.first().map(|j| j.id),
+                reason: format!(
+                    "AUTOTS: the error estimate {:.3e} m is over the tolerance {tolerance:.3e} m \
+                     at the smallest substep the load step allows ({:.4e} s): lower the DELTIM \
+                     minimum or raise MIDTOL",
+                    stats.last_estimate, stats.smallest_substep
+                ),
+            });
+        }
+        Ok(())
     }
 }
 
@@ -331,6 +365,11 @@ pub(super) fn check_static(
     Ok(())
 }
 
+/// The most substeps per step `AUTOTS` may take, whatever `dtmin` or `nmax` ask (a hostile
+/// `DELTIM,1e30,1e-30` would ask for 1e60; each retry doubles the work, so a deck that cannot
+/// meet its tolerance costs up to about six times this per step before it stops).
+const MAX_AUTOTS_SUBSTEPS: usize = 256;
+
 /// Time stepping of every load step.
 pub(super) fn plan_steps(deck: &Deck) -> Result<Vec<StepPlan>, Error> {
     let mut out = Vec::new();
@@ -376,12 +415,32 @@ pub(super) fn plan_steps(deck: &Deck) -> Result<Vec<StepPlan>, Error> {
                 ),
             ));
         };
+        let dt = span / n as f64;
+        // The most substeps per step: DELTIM's dtmin, or NSUBST's nmax over its n.
+        let max_substeps = match (ls.deltim, ls.nsubst) {
+            (Some(TimeIncrement { min: Some(min), .. }), _) => (dt / min).ceil() as usize,
+            (
+                _,
+                Some(Substeps {
+                    max: Some(max), n, ..
+                }),
+            ) => (max as usize).div_ceil(n.max(1) as usize),
+            _ => 64,
+        };
+        let autots = ls.autots.then(|| {
+            let tol = match ls.midtol {
+                Some(Some(t)) => t,
+                _ => AUTOTS_TOLERANCE,
+            };
+            (tol, max_substeps.clamp(2, MAX_AUTOTS_SUBSTEPS))
+        });
         out.push(StepPlan {
             number: ls.number,
             start,
             end: ls.end_time,
-            dt: span / n as f64,
+            dt,
             steps: n,
+            autots,
         });
         start = ls.end_time;
     }

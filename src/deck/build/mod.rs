@@ -156,7 +156,19 @@ pub struct StepPlan {
     pub dt: f64,
     /// Number of steps (output times).
     pub steps: usize,
+    /// `AUTOTS,ON`: the substeps of each step are chosen to this tolerance, a fraction of the
+    /// model size per step (`MIDTOL,ON,TOLERB` gives it; default [`AUTOTS_TOLERANCE`]), up to
+    /// `max_substeps` (`DELTIM`'s `dtmin`: `dt / dtmin`; `NSUBST`'s `nmax`: `nmax / n`; default
+    /// 64; at most 256). `None`: fixed substeps.
+    pub autots: Option<(f64, usize)>,
 }
+
+/// The step-doubling tolerance of `AUTOTS,ON` without `MIDTOL`: 1e-4 of the model size per
+/// step (the first-order scheme meets it on A01 at DELTIM 1/240 with no retry, and keeps the
+/// period to 7.8e-6; tighter tolerances are for the second-order scheme). (ANSYS's `MIDTOL` bounds the midstep force residual; no residual exists here, so
+/// its `TOLERB` is read as this position tolerance instead: positive, a fraction of the model
+/// size; negative, an absolute length in metres.)
+pub const AUTOTS_TOLERANCE: f64 = 1e-4;
 
 /// A grounded general joint standing for partial or nonzero `D` on one node.
 #[derive(Clone, Copy, Debug)]
