@@ -308,6 +308,7 @@ pub(crate) fn settings(method: Method, dt: f64, substeps: usize) -> WorldSetting
         } else {
             Integrator::SymplecticEuler
         },
+        ..WorldSettings::default()
     }
 }
 
