@@ -16,10 +16,10 @@
 use crate::drive::Drive;
 use crate::math::Real;
 use crate::math::rapier::dynamics::{MotorModel, RigidBodyHandle};
-use crate::rows::{FramePair, RowEval, RowKind};
+use crate::rows::FramePair;
 
 use super::super::Sets;
-use super::stops::{displace, joint_data, rapier_axis, response};
+use super::stops::{correct, dof_and_constraints, joint_data, rapier_axis, response};
 use super::{AXES, RapierBackend};
 
 /// The motor's damping (N s/m or N m s/rad): far above any mechanism's own, so that Rapier's
@@ -78,35 +78,18 @@ impl RapierBackend {
                 let q = m[k] - e.initial[k];
                 let v = rows[k].rate([vel[0].0, vel[0].1], [vel[1].0, vel[1].1]);
                 let rate = mean_rate(d, t - 0.5 * span, t + 0.5 * span);
-                targets.push((k, rapier_axis(e, k), d.value(t) - q, rate - v, rate));
+                let set = dof_and_constraints(e, &rows, k);
+                targets.push((set, rapier_axis(e, k), d.value(t) - q, rate - v, rate));
             }
-            // The rows the correction keeps: the joint's constraints (the drive rows aside).
-            let kept: Vec<RowEval> = e
-                .state
-                .rows
-                .iter()
-                .filter(|r| !matches!(r, RowKind::Drive { .. } | RowKind::Screw { .. }))
-                .map(|r| r.eval(&f))
-                .collect();
-            for (k, axis, dq, dv, rate) in targets {
+            for (set, axis, dq, dv, rate) in targets {
                 if self.multibody() {
                     Self::set_coordinate_rate(sets, rapier, axis, Some(rate), dq);
                     continue;
                 }
-                let mut set = vec![rows[k]];
-                set.extend(kept.iter().copied());
                 let Some((_, unit)) = response(&sets.physics.bodies, [body1, body2], &set) else {
                     continue;
                 };
-                for (b, (dl, da)) in [body1, body2].into_iter().zip(unit) {
-                    displace(&mut sets.physics.bodies, b, dl * dq, da * dq);
-                    let rb = &mut sets.physics.bodies[b];
-                    if rb.is_dynamic() {
-                        let (lin, ang) = (rb.linvel() + dl * dv, rb.angvel() + da * dv);
-                        rb.set_linvel(lin, true);
-                        rb.set_angvel(ang, true);
-                    }
-                }
+                correct(&mut sets.physics.bodies, [body1, body2], unit, dq, dv);
             }
         }
     }

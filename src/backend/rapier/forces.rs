@@ -54,12 +54,7 @@ fn stiff_dofs(
         {
             continue;
         }
-        let mut set = vec![rows[k]];
-        set.extend(
-            (0..6)
-                .filter(|&j| !free.contains(Dof::ALL[j]))
-                .map(|j| rows[j]),
-        );
+        let set = super::stops::dof_and_constraints(e, rows, k);
         let Some((m_eff, _)) =
             super::stops::response(&sets.physics.bodies, [e.body1, e.body2], &set)
         else {

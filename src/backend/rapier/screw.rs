@@ -24,7 +24,7 @@ use crate::solver::dense;
 
 use super::super::Sets;
 use super::RapierBackend;
-use super::stops::{displace, response};
+use super::stops::{correct, response};
 use crate::joint_set::RapierJoint;
 
 impl RapierBackend {
@@ -65,20 +65,13 @@ impl RapierBackend {
             };
             let vel = [body1, body2].map(|b| self.velocity(sets.physics, b));
             let rate = row.rate([vel[0].0, vel[0].1], [vel[1].0, vel[1].1]);
-            for (b, (dl, da)) in [body1, body2].into_iter().zip(unit) {
-                displace(
-                    &mut sets.physics.bodies,
-                    b,
-                    dl * -row.value,
-                    da * -row.value,
-                );
-                let rb = &mut sets.physics.bodies[b];
-                if rb.is_dynamic() {
-                    let (lin, ang) = (rb.linvel() - dl * rate, rb.angvel() - da * rate);
-                    rb.set_linvel(lin, true);
-                    rb.set_angvel(ang, true);
-                }
-            }
+            correct(
+                &mut sets.physics.bodies,
+                [body1, body2],
+                unit,
+                -row.value,
+                -rate,
+            );
         }
     }
 }

@@ -28,6 +28,7 @@
 //!   a stop reached at the end of a call is handled at that call.
 
 use crate::behaviour::dof_rows;
+use crate::dof::Dof;
 use crate::joint::ConstraintMethod;
 use crate::joint_set::{JointEntry, RapierJoint};
 use crate::math::rapier::dynamics::{GenericJoint, RigidBodyHandle, RigidBodySet};
@@ -171,9 +172,7 @@ impl RapierBackend {
             let elastic = !matches!(e.joint.method, ConstraintMethod::Penalty { .. });
             let (body1, body2, rapier) = (e.body1, e.body2, e.rapier);
             let axis = rapier_axis(e, a.dof);
-            let constrained: Vec<usize> = (0..6)
-                .filter(|&k| !e.joint.kind.free().contains(crate::dof::Dof::ALL[k]))
-                .collect();
+            let set = dof_and_constraints(e, &rows, a.dof);
             if let Some(Some(e)) = sets.joints.slots_mut().get_mut(a.slot) {
                 e.state.at_stop[a.dof] = at_min || at_max || reached;
             }
@@ -192,8 +191,6 @@ impl RapierBackend {
                 Self::rebound_multibody(sets, rapier, axis, lost, away, past);
                 continue;
             }
-            let mut set: Vec<RowEval> = vec![rows[a.dof]];
-            set.extend(constrained.iter().map(|&k| rows[k]));
             let Some((m_eff, unit)) = response(&sets.physics.bodies, [body1, body2], &set) else {
                 continue;
             };
@@ -201,15 +198,7 @@ impl RapierBackend {
             // rows' rates are kept), d with the sign `away`.
             let p = m_eff * v;
             let d = away * ((p * p + 2.0 * m_eff * lost).sqrt() - away * p) / m_eff;
-            for (b, (dl, da)) in [body1, body2].into_iter().zip(unit) {
-                displace(&mut sets.physics.bodies, b, dl * -past, da * -past);
-                let rb = &mut sets.physics.bodies[b];
-                if rb.is_dynamic() {
-                    let (lin, ang) = (rb.linvel() + dl * d, rb.angvel() + da * d);
-                    rb.set_linvel(lin, true);
-                    rb.set_angvel(ang, true);
-                }
-            }
+            correct(&mut sets.physics.bodies, [body1, body2], unit, -past, d);
         }
     }
 
@@ -246,25 +235,12 @@ impl RapierBackend {
         let side = |b: RigidBodyHandle| crate::body::pose_and_com(&sets.physics.bodies[b]);
         let f = FramePair::at(&e.low, side(body1), side(body2));
         let (_, rows) = dof_rows(&f, [e.state.output.measure[3], e.state.output.measure[5]]);
-        let mut set: Vec<RowEval> = vec![rows[a.dof]];
-        set.extend(
-            (0..6)
-                .filter(|&k| !e.joint.kind.free().contains(crate::dof::Dof::ALL[k]))
-                .map(|k| rows[k]),
-        );
+        let set = dof_and_constraints(e, &rows, a.dof);
         let past = q - value;
         if self.multibody() {
             Self::set_coordinate_rate(sets, rapier, axis, None, -past);
         } else if let Some((_, unit)) = response(&sets.physics.bodies, [body1, body2], &set) {
-            for (b, (dl, da)) in [body1, body2].into_iter().zip(unit) {
-                displace(&mut sets.physics.bodies, b, dl * -past, da * -past);
-                let rb = &mut sets.physics.bodies[b];
-                if rb.is_dynamic() {
-                    let (lin, ang) = (rb.linvel() - dl * v, rb.angvel() - da * v);
-                    rb.set_linvel(lin, true);
-                    rb.set_angvel(ang, true);
-                }
-            }
+            correct(&mut sets.physics.bodies, [body1, body2], unit, -past, -v);
         }
         let Some(Some(e)) = sets.joints.slots().get(a.slot) else {
             return;
@@ -459,7 +435,7 @@ pub(super) fn response(
 
 /// Moves a dynamic body's centre of mass by `dl` and turns it by the rotation vector `da`
 /// about it.
-pub(super) fn displace(bodies: &mut RigidBodySet, b: RigidBodyHandle, dl: Vector, da: Vector) {
+fn displace(bodies: &mut RigidBodySet, b: RigidBodyHandle, dl: Vector, da: Vector) {
     let rb = &mut bodies[b];
     if !rb.is_dynamic() {
         return;
@@ -501,6 +477,39 @@ pub(super) fn displace_multibody(
     for l in mb.links() {
         if let Some(rb) = bodies.get_mut(l.rigid_body_handle()) {
             rb.set_position(*l.local_to_world(), true);
+        }
+    }
+}
+
+/// The row of DOF `dof` followed by the joint's constrained DOF rows: the set whose response
+/// changes that DOF's rate and leaves the joint's constraints alone.
+pub(super) fn dof_and_constraints(e: &JointEntry, rows: &[RowEval; 6], dof: usize) -> Vec<RowEval> {
+    let free = e.joint.kind.free();
+    core::iter::once(rows[dof])
+        .chain(
+            (0..6)
+                .filter(|&k| !free.contains(Dof::ALL[k]))
+                .map(|k| rows[k]),
+        )
+        .collect()
+}
+
+/// Moves the two bodies by `unit` times `position` and changes their velocities by `unit` times
+/// `rate` (`unit`: a [`response`] per unit change of its row).
+pub(super) fn correct(
+    bodies: &mut RigidBodySet,
+    pair: [RigidBodyHandle; 2],
+    unit: [(Vector, Vector); 2],
+    position: Real,
+    rate: Real,
+) {
+    for (b, (dl, da)) in pair.into_iter().zip(unit) {
+        displace(bodies, b, dl * position, da * position);
+        let rb = &mut bodies[b];
+        if rb.is_dynamic() {
+            let (lin, ang) = (rb.linvel() + dl * rate, rb.angvel() + da * rate);
+            rb.set_linvel(lin, true);
+            rb.set_angvel(ang, true);
         }
     }
 }
