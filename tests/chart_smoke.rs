@@ -19,7 +19,13 @@ use std::process::Command;
 fn quick_sweep_writes_every_chart() {
     let dir = std::env::temp_dir().join(format!("mpc184_chart_{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
-    let out = Command::new(common::example("chart"))
+    let exe = common::example("chart");
+    assert!(
+        exe.exists(),
+        "{} is missing: build it first (cargo build --release --features charts --example chart)",
+        exe.display()
+    );
+    let out = Command::new(exe)
         .args(["--quick", "--out"])
         .arg(&dir)
         .output()
