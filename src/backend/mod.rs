@@ -129,10 +129,18 @@ impl JointBackend {
     }
 
     /// The order of accuracy of a step with `integrator` (2 for RATTLE on the Lagrange
-    /// backend; the Rapier backends and the first-order scheme: 1).
+    /// backend, 4 for the composition unless some body took RATTLE in the last step; the
+    /// Rapier backends and the first-order scheme: 1).
     pub(crate) fn order(&self, integrator: Integrator) -> u32 {
         match (self, integrator) {
             (JointBackend::Lagrange(_), Integrator::Rattle) => 2,
+            (JointBackend::Lagrange(l), Integrator::Composition4) => {
+                if l.diagnostics().second_order_bodies > 0 {
+                    2
+                } else {
+                    4
+                }
+            }
             _ => 1,
         }
     }
@@ -238,7 +246,7 @@ impl JointBackend {
     /// output.
     pub(crate) fn write_reactions(&mut self, sets: &mut Sets, h: Real) {
         match self {
-            JointBackend::Lagrange(l) => l.write_reactions(sets, h),
+            JointBackend::Lagrange(l) => l.write_reactions(sets),
             JointBackend::Rapier(r) => r.write_reactions(sets, h),
         }
     }

@@ -289,6 +289,15 @@ impl Island {
             } else {
                 0.0
             };
+            // The composition keeps the mass matrix (its factorisation serves every stage
+            // size); a body that needs the added inertia turns the island to RATTLE.
+            if self.composed {
+                s.added = 0.0;
+            }
+        }
+        self.would_stiffen = stiffened > 0;
+        if self.composed {
+            stiffened = 0;
         }
         self.report.stiffened_bodies = stiffened;
     }

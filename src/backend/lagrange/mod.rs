@@ -163,6 +163,12 @@ pub struct LagrangeDiagnostics {
     /// [`Integrator::Rattle`](crate::settings::Integrator::Rattle): their island had an active
     /// contact.
     pub first_order_bodies: usize,
+    /// Bodies integrated by RATTLE in the last step although the world asked for
+    /// [`Integrator::Composition4`](crate::settings::Integrator::Composition4): their island
+    /// has behaviour, penalty rows, springs, drives or screws, needed added inertia, or the
+    /// world has colliders, kinematic bodies or multibodies (the composition's negative stage
+    /// needs the island to integrate its bodies itself).
+    pub second_order_bodies: usize,
     /// Steps so far in which some island fell back to the first-order step (contacts).
     pub first_order_steps: usize,
     /// Spring-damper kicks in the last step that took the implicit update (the substep could
@@ -180,6 +186,7 @@ impl LagrangeDiagnostics {
         projection_iterations: 0,
         stiffened_bodies: 0,
         first_order_bodies: 0,
+        second_order_bodies: 0,
         first_order_steps: 0,
         implicit_springs: 0,
         warnings: Vec::new(),
@@ -214,6 +221,7 @@ struct IslandReport {
     projection_iterations: usize,
     stiffened_bodies: usize,
     first_order_bodies: usize,
+    second_order_bodies: usize,
     implicit_springs: usize,
     /// Warnings raised in the step (kept once per kind by the backend).
     warnings: Vec<(Warning, String)>,
@@ -298,6 +306,15 @@ pub(crate) struct Island {
     second: Vec<bool>,
     /// Some body is integrated by the second-order step in the current step.
     second_any: bool,
+    /// The island takes the fourth-order composition of RATTLE substeps in the current step
+    /// ([`Integrator::Composition4`](crate::settings::Integrator::Composition4)).
+    composed: bool,
+    /// A composed substep found a body that the geometric-stiffness added inertia would have
+    /// stiffened: the island takes RATTLE from the next step on.
+    would_stiffen: bool,
+    /// The size of the last substep taken (s; a stage of the composition is `gamma h`): the
+    /// reactions divide its impulses by it.
+    last_h: Real,
     /// Some joint of the island has behaviour (stops, locks, springs, dampers, friction,
     /// loads), and some has an elastic stop: set at each step's start.
     has_effects: bool,
@@ -388,14 +405,17 @@ impl LagrangeBackend {
         if rebuilt {
             self.topology(sets)?;
         }
+        let alone = integrates_alone(sets, &self.islands);
         for island in &mut self.islands {
             island.report = IslandReport {
                 redundant_rows: island.report.redundant_rows,
                 ..IslandReport::default()
             };
             island.prepare(&self.fx, sets, h, rebuilt)?;
+            island.choose_composition(sets.integrator, alone);
+            island.last_h = h;
         }
-        if integrates_alone(sets, &self.islands) {
+        if alone {
             self.step_islands_alone(sets, h, n)?;
         } else {
             for k in 0..n {
@@ -418,6 +438,7 @@ impl LagrangeBackend {
         d.projection_iterations = 0;
         d.stiffened_bodies = 0;
         d.first_order_bodies = 0;
+        d.second_order_bodies = 0;
         d.implicit_springs = 0;
         for island in &mut self.islands {
             let r = &mut island.report;
@@ -426,6 +447,7 @@ impl LagrangeBackend {
             d.projection_iterations = d.projection_iterations.max(r.projection_iterations);
             d.stiffened_bodies += r.stiffened_bodies;
             d.first_order_bodies += r.first_order_bodies;
+            d.second_order_bodies += r.second_order_bodies;
             d.implicit_springs += r.implicit_springs;
             for (kind, text) in r.warnings.drain(..) {
                 if !self.warned.contains(&kind) {
@@ -439,9 +461,11 @@ impl LagrangeBackend {
         }
     }
 
-    /// Reactions from the multipliers of the last substep `h` (plus the springs', dampers',
-    /// loads' and limits' forces), and the element forces, into the joints' outputs.
-    pub(crate) fn write_reactions(&mut self, sets: &mut Sets, h: Real) {
+    /// Reactions from the multipliers of the last substep (plus the springs', dampers',
+    /// loads' and limits' forces), and the element forces, into the joints' outputs. Each
+    /// island divides by the size of its own last substep (a stage of the fourth-order
+    /// composition is shorter than `h`).
+    pub(crate) fn write_reactions(&mut self, sets: &mut Sets) {
         let bodies = &sets.physics.bodies;
         for (ji, e) in sets.joints.slots_mut().iter_mut().enumerate() {
             let Some(e) = e else { continue };
@@ -456,6 +480,7 @@ impl LagrangeBackend {
                 && let Some(rows) = self.islands[i].block_rows(k)
             {
                 let impulse = &self.islands[i].impulse;
+                let h = self.islands[i].last_h;
                 let fp = e.low_frames(bodies);
                 for (row, r) in e.state.rows.iter().zip(rows) {
                     let ev = row.eval(&fp);
@@ -646,7 +671,8 @@ fn gyroscopic_kick(s: &BodyState, w: Vector, dt: Real) -> Vector {
 /// (`q' = normalize((1 + w h / 2) q)`, a turn by `2 atan(|w| h / 2)`) turn a body by exactly
 /// `|w| h`: `tan(|w| h / 2) / (|w| h / 2)`. One for tiny turns; capped below a half turn.
 fn rotation_scale(w: Vector, h: Real) -> Real {
-    let half = 0.5 * w.length() * h;
+    // Even in `h`: a negative stage of the fourth-order composition turns back by `|w| |h|`.
+    let half = 0.5 * w.length() * h.abs();
     if half < 1e-4 {
         // Series: 1 + x^2 / 3 (the next term, 2 x^4 / 15, is below round-off here).
         1.0 + half * half / 3.0

@@ -16,6 +16,19 @@ use super::{
     Island, LagrangeBackend, gyroscopic_kick, kkt_err, projection_tolerance, rotation_scale,
 };
 
+/// The stage sizes of the fourth-order composition, in units of the substep: Suzuki's
+/// fractal `p, p, 1 - 4p, p, p` with `p = 1 / (4 - 4^(1/3))` (Suzuki 1990; Hairer, Lubich,
+/// Wanner, "Geometric Numerical Integration", II.4). Measured on A01 and the conical
+/// pendulum (`tests/composition4_order.rs`), its error is 1/72 to 1/76 of the triple jump's
+/// (`a, 1 - 2a, a` with `a = 1 / (2 - 2^(1/3))`, whose middle stage is -1.7 h against -0.66 h
+/// here) at the same substep, about 1/10 at the same cost (the triple jump has 3 stages).
+const SUZUKI: [Real; 5] = {
+    // 4^(1/3) to round-off (a `const` cannot call `cbrt`).
+    let c: Real = 1.587_401_051_968_199_5;
+    let p = 1.0 / (4.0 - c);
+    [p, p, 1.0 - 4.0 * p, p, p]
+};
+
 impl LagrangeBackend {
     /// One substep of `h` ending at `t1` for every island: each island's stages up to the
     /// velocity solve, one Rapier call for all (contacts act), each island's stages from the
@@ -112,14 +125,21 @@ impl Island {
         h: Real,
         n: usize,
     ) -> Result<(), Error> {
+        let stages: &[Real] = if self.composed { &SUZUKI } else { &[1.0] };
         for _ in 0..n {
-            self.kick_momenta(h);
-            self.solve_velocity(time)?;
-            self.drift(h);
-            self.project_positions(joints, bodies, h, time)?;
-            self.factor(joints, bodies, h, time)?;
-            self.end_momenta(h);
-            self.project_velocities(time)?;
+            for &gamma in stages {
+                let hs = gamma * h;
+                self.kick_momenta(hs);
+                self.solve_velocity(time)?;
+                self.drift(hs);
+                self.project_positions(joints, bodies, hs, time)?;
+                self.factor(joints, bodies, hs, time)?;
+                self.end_momenta(hs);
+                self.project_velocities(time)?;
+                self.last_h = hs;
+            }
+            // A composed island's factorisation does not depend on the stage size (Lagrange
+            // rows only, no added inertia): it holds for the next step's `h`.
             self.factor_valid = Some(h);
         }
         Ok(())

@@ -231,7 +231,10 @@ impl Island {
     /// (bodies connected by joints) with an active contact takes the first-order step.
     pub(super) fn choose_order(&mut self, sets: &Sets) {
         let nb = self.bodies.len();
-        let rattle = sets.integrator == Integrator::Rattle;
+        let rattle = matches!(
+            sets.integrator,
+            Integrator::Rattle | Integrator::Composition4
+        );
         self.second.clear();
         self.second.resize(nb, rattle);
         self.second_any = rattle && nb > 0;
@@ -282,6 +285,25 @@ impl Island {
                 sets.time
             ),
         );
+    }
+
+    /// Whether the island takes the fourth-order composition in this step (see
+    /// [`Integrator::Composition4`]): the world asks for it, the islands integrate their
+    /// bodies themselves (`alone`: the negative stage cannot go through Rapier), the island is
+    /// plain (no behaviour, spring, drive or screw), has no penalty row (their compliance
+    /// depends on the stage size) and needed no added inertia. Otherwise its bodies take
+    /// RATTLE, counted in the report.
+    pub(super) fn choose_composition(&mut self, integrator: Integrator, alone: bool) {
+        let asked = integrator == Integrator::Composition4;
+        self.composed = asked
+            && alone
+            && self.plain
+            && self.second_any
+            && !self.would_stiffen
+            && self.kpen.iter().all(|k| *k == 0.0);
+        if asked && !self.composed {
+            self.report.second_order_bodies = self.second.iter().filter(|x| **x).count();
+        }
     }
 
     /// The solver's bodies with an active contact (their slots).

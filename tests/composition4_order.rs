@@ -1,0 +1,127 @@
+//! Fourth-order convergence of `Integrator::Composition4` (Suzuki's five-stage composition of
+//! RATTLE substeps).
+//!
+//! 1. A01-type revolute pendulum (1 kg bob, 1 m, isotropic inertia 1e-4 kg m^2) released from
+//!    rest at 90 deg, over one period `T` (elliptic integral by the AGM), run with `h = T / N`
+//!    for N = 40, 80, 160 (the checkpoints `k T / 8` are step boundaries). The error is the
+//!    largest over the checkpoints of the angle error times L (m) against an independent RK4
+//!    solution of the pendulum equation (20000 steps per period, error below 1e-14).
+//! 2. The conical pendulum (spherical joint, 1 m at 30 deg): the exact motion is a steady
+//!    precession at `sqrt(g / (L cos alpha))`; the error is the bob's distance from the exact
+//!    circle position after 2 s, for h = 1/20, 1/40, 1/80 s.
+//!
+//! A fourth-order method divides the error by 16 per halving of h: the observed orders
+//! `log2(e(h) / e(h/2))` must lie in [3.8, 4.2] (the issue's +-0.2; the next term of the error
+//! shifts them by O(h^2 / T^2), a few per mille here). The composition is also checked against
+//! RATTLE at the same CPU (RATTLE with 5 times the substeps): it must be more accurate by
+//! at least 10x at the finest step, which is what pays for its five stages. Its
+//! diagnostics must report no body falling back to RATTLE (the islands are plain).
+#![cfg(feature = "f64")]
+
+use rapier3d_mpc184::prelude::*;
+use rapier3d_mpc184::studies::metrics::pendulum_period;
+use rapier3d_mpc184::studies::scenes::{self, G};
+
+/// The exact angle of the pendulum at `t` (RK4 of `I_p theta'' = -m g L sin(theta)` with 20000
+/// steps per period).
+fn reference(ip: Real, mgl: Real, theta0: Real, t: Real) -> Real {
+    let n = 20_000;
+    let h = t / n as Real;
+    let f = |th: Real| -mgl / ip * th.sin();
+    let (mut th, mut om) = (theta0, 0.0);
+    for _ in 0..n {
+        let (k1t, k1o) = (om, f(th));
+        let (k2t, k2o) = (om + 0.5 * h * k1o, f(th + 0.5 * h * k1t));
+        let (k3t, k3o) = (om + 0.5 * h * k2o, f(th + 0.5 * h * k2t));
+        let (k4t, k4o) = (om + h * k3o, f(th + h * k3t));
+        th += h / 6.0 * (k1t + 2.0 * k2t + 2.0 * k3t + k4t);
+        om += h / 6.0 * (k1o + 2.0 * k2o + 2.0 * k3o + k4o);
+    }
+    th
+}
+
+/// Largest angle error times L (m) over the checkpoints `k T / 8` at `n` steps per period.
+fn pendulum_error(integrator: Integrator, n: usize) -> Real {
+    let theta0 = core::f64::consts::FRAC_PI_2 as Real;
+    let probe =
+        scenes::pendulum(WorldSettings::default(), Axis::Z, 1.0, theta0, 1.0, 1e-4).unwrap();
+    let ip = probe.pivot_inertia();
+    let mgl = probe.mass * G * probe.length;
+    let period = pendulum_period(ip, probe.mass, G, probe.length, theta0);
+    let settings = WorldSettings {
+        dt: period / n as Real,
+        substeps: 1,
+        integrator,
+        ..WorldSettings::default()
+    };
+    let mut p = scenes::pendulum(settings, Axis::Z, 1.0, theta0, 1.0, 1e-4).unwrap();
+    let mut e: Real = 0.0;
+    for k in 1..=8 {
+        for _ in 0..n / 8 {
+            p.world.step().unwrap();
+        }
+        if integrator == Integrator::Composition4 {
+            assert_eq!(p.world.lagrange_diagnostics().second_order_bodies, 0);
+        }
+        let th = reference(ip, mgl, theta0, k as Real * period / 8.0);
+        let out = p.world.output(p.joint).unwrap();
+        e = e.max((theta0 + out.dof(Dof::RotZ) - th).abs() * p.length);
+    }
+    e
+}
+
+/// The conical pendulum's bob error (m) after 2 s at `dt` (one substep).
+fn conical_error(integrator: Integrator, dt: Real) -> Real {
+    let (l, alpha) = (1.0, 30.0_f64.to_radians() as Real);
+    let settings = WorldSettings {
+        dt,
+        substeps: 1,
+        integrator,
+        ..WorldSettings::default()
+    };
+    let (mut world, bob, _) = scenes::conical_pendulum(settings, l, alpha, 1.0, 1e-4).unwrap();
+    let steps = (2.0 / dt).round() as usize;
+    for _ in 0..steps {
+        world.step().unwrap();
+    }
+    let t = world.time();
+    let omega = (G / (l * alpha.cos())).sqrt();
+    let r = l * alpha.sin();
+    let exact = Vector::new(
+        r * (omega * t).cos(),
+        -l * alpha.cos(),
+        -r * (omega * t).sin(),
+    );
+    (world.physics.bodies[bob].translation() - exact).length()
+}
+
+fn orders(e: [Real; 3]) -> [Real; 2] {
+    [(e[0] / e[1]).log2(), (e[1] / e[2]).log2()]
+}
+
+#[test]
+fn pendulum_converges_with_slope_four() {
+    let e = [40, 80, 160].map(|n| pendulum_error(Integrator::Composition4, n));
+    let o = orders(e);
+    eprintln!("A01 composition errors {e:?} m, orders {o:?}");
+    for x in o {
+        assert!((3.8..=4.2).contains(&x), "order {x} (errors {e:?})");
+    }
+    // Same CPU: RATTLE with five substeps per composed substep.
+    let rattle = pendulum_error(Integrator::Rattle, 5 * 160);
+    eprintln!("A01 RATTLE at 5x the steps: {rattle:e} m");
+    assert!(e[2] * 10.0 < rattle, "{} vs RATTLE {rattle}", e[2]);
+}
+
+#[test]
+fn conical_pendulum_converges_with_slope_four() {
+    let e = [20.0, 40.0, 80.0].map(|n| conical_error(Integrator::Composition4, 1.0 / n));
+    let o = orders(e);
+    eprintln!("conical composition errors {e:?} m, orders {o:?}");
+    for x in o {
+        assert!((3.8..=4.2).contains(&x), "order {x} (errors {e:?})");
+    }
+    let rattle = conical_error(Integrator::Rattle, 1.0 / 400.0);
+    eprintln!("conical RATTLE at 5x the steps: {rattle:e} m");
+    assert!(e[2] * 10.0 < rattle, "{} vs RATTLE {rattle}", e[2]);
+}
