@@ -428,7 +428,7 @@ impl JointEntry {
                 RowKind::Distance { length } => {
                     *length = (f0.p2 - f0.p1).length();
                 }
-                RowKind::Linear { .. } | RowKind::Drive { .. } => {}
+                RowKind::Linear { .. } | RowKind::Drive { .. } | RowKind::Spin { .. } => {}
             }
         }
     }
@@ -443,7 +443,10 @@ impl JointEntry {
                 RowKind::Drive { dof, reference, .. } => {
                     *reference = rows::dof_measure(f, *dof, *reference);
                 }
-                RowKind::Linear { .. } | RowKind::Angular { .. } | RowKind::Distance { .. } => {}
+                RowKind::Linear { .. }
+                | RowKind::Angular { .. }
+                | RowKind::Distance { .. }
+                | RowKind::Spin { .. } => {}
             }
         }
     }
@@ -474,6 +477,30 @@ impl JointEntry {
                    per free DOF"
                 .into(),
         })
+    }
+
+    /// Adds a velocity-level row holding the spin of side `side`'s body about `axis` (world
+    /// frame, unit) at zero rate ([`RowKind::Spin`]); the caller touches the set.
+    pub(crate) fn add_spin_row(
+        &mut self,
+        id: JointId,
+        bodies: &RigidBodySet,
+        side: u8,
+        axis: Vector,
+    ) -> Result<(), Error> {
+        let f = self.low_frames(bodies);
+        let frame = if side == 1 { f.r1 } else { f.r2 };
+        let row = RowKind::Spin {
+            side,
+            axis: frame.transpose() * axis,
+        };
+        self.state
+            .rows
+            .try_push(row)
+            .map_err(|_| Error::Unsupported {
+                what: format!("{id}: more than {MAX_JOINT_ROWS} constraint rows"),
+                hint: "the idle-spin row did not fit beside the joint's other rows".into(),
+            })
     }
 
     /// The lowering frames (rows are measured between them) at the bodies' poses now.
@@ -519,8 +546,8 @@ impl JointEntry {
                 RowKind::Linear { .. } | RowKind::Screw { .. } | RowKind::Distance { .. } => {
                     gap = gap.max(c);
                 }
-                // A drive's error is a tracking error, not a gap.
-                RowKind::Drive { .. } => {}
+                // A drive's error is a tracking error, not a gap; a spin row has none.
+                RowKind::Drive { .. } | RowKind::Spin { .. } => {}
                 RowKind::Angular { .. } => angular_gap = angular_gap.max(c),
             }
         }

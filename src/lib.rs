@@ -62,6 +62,7 @@ pub mod drive;
 #[cfg(feature = "ecs")]
 pub mod ecs;
 pub mod error;
+pub mod idle;
 pub mod joint;
 pub mod kinematics;
 pub mod math;

@@ -25,6 +25,10 @@
 //! `J1 = (-n, -(p1 - c1) x n)`, `J2 = (n, (p2 - c2) x n)`. Its multiplier is the axial force
 //! (positive pushes the nodes apart).
 //!
+//! An idle spin ([`crate::idle`]) is removed by a velocity-level row on one side only,
+//! `w . a = 0` with `a` fixed in that side's frame: `J = (0, a)` on that side, zero on the
+//! other, value always zero (nothing for the position projection to do).
+//!
 //! A row's Jacobian acts on body velocities `(v, w)` (world frame, at the centre of mass):
 //! linear rows `J1 = (-e, -(p2 - c1) x e)`, `J2 = (e, (p2 - c2) x e)`; angular rows with
 //! `n = a x b`: `J1 = (0, n)`, `J2 = (0, -n)`. A multiplier `lambda` applies `J^T lambda`
@@ -76,6 +80,14 @@ pub enum RowKind {
         reference: Real,
         /// The rotation at time 0 (rad).
         theta0: Real,
+    },
+    /// The spin of one side's body about an axis fixed in it held at zero rate (`w . a = 0`,
+    /// velocity level; the removal of an idle mode, see [`crate::idle`]).
+    Spin {
+        /// The side whose body spins: 1 or 2.
+        side: u8,
+        /// The axis in that side's frame (unit).
+        axis: Vector,
     },
 }
 
@@ -227,12 +239,29 @@ impl RowKind {
             RowKind::Distance { .. } | RowKind::Drive { .. } | RowKind::Screw { .. } => {
                 self.eval(f).value
             }
+            RowKind::Spin { .. } => 0.0,
         }
     }
 
     /// Value and Jacobian at the configuration `f`.
     pub fn eval(self, f: &FramePair) -> RowEval {
         match self {
+            RowKind::Spin { side, axis } => {
+                let zero = [Vector::ZERO, Vector::ZERO];
+                if side == 1 {
+                    RowEval {
+                        value: 0.0,
+                        j1: [Vector::ZERO, f.r1 * axis],
+                        j2: zero,
+                    }
+                } else {
+                    RowEval {
+                        value: 0.0,
+                        j1: zero,
+                        j2: [Vector::ZERO, f.r2 * axis],
+                    }
+                }
+            }
             RowKind::Linear { axis } => {
                 let e = f.r1.col(axis);
                 let d = f.p2 - f.p1;

@@ -822,6 +822,57 @@ impl Mpc184World {
         statics.finish(&mut self.core.sets(&mut self.physics), solution)
     }
 
+    /// The idle modes of the scene at the bodies' current poses (see [`crate::idle`]): spins
+    /// of one body about an axis through its centre of mass that its joints leave free and
+    /// that move nothing else.
+    #[doc(alias = "idle")]
+    pub fn idle_modes(&self) -> Vec<crate::idle::IdleMode> {
+        crate::idle::find(&self.physics.bodies, &self.core.joints)
+    }
+
+    /// Removes the idle modes found now: each gets a velocity-level row holding the body's
+    /// spin about the axis at zero rate ([`crate::rows::RowKind::Spin`]), added to the first
+    /// of the body's joints. Returns the modes removed (none: nothing changes). A spin the
+    /// body had about the axis is taken out by the first step's velocity solve.
+    ///
+    /// # Errors
+    /// [`Error::Unsupported`] on the Rapier backends (their joints are Rapier's; the modes are
+    /// still reported by [`Mpc184World::idle_modes`]); a joint with no room for another row
+    /// (world unchanged).
+    pub fn remove_idle_modes(&mut self) -> Result<Vec<crate::idle::IdleMode>, Error> {
+        if self.core.settings.backend != crate::settings::Backend::Lagrange {
+            return Err(Error::Unsupported {
+                what: format!(
+                    "removing idle modes on the {} backend",
+                    self.core.settings.backend.name()
+                ),
+                hint: "the spin row is a Lagrange-backend row; use the Lagrange backend, or                        give the body a rotary inertia about the axis"
+                    .into(),
+            });
+        }
+        let modes = self.idle_modes();
+        let saved = self.core.joints.clone();
+        for m in &modes {
+            let Some(&id) = m.joints.first() else {
+                continue;
+            };
+            let bodies = &self.physics.bodies;
+            let result = self.core.joints.entry_mut(id).and_then(|e| {
+                let side = if e.body1 == m.body { 1 } else { 2 };
+                e.add_spin_row(id, bodies, side, m.axis)
+            });
+            if let Err(e) = result {
+                self.core.joints = saved;
+                return Err(e);
+            }
+        }
+        if !modes.is_empty() {
+            self.core.joints.touch();
+            self.backend.invalidate();
+        }
+        Ok(modes)
+    }
+
     /// Free DOFs of the mechanism at its current configuration: `6` per dynamic body minus the
     /// rank of the constraint Jacobian (every joint row, drives and held locks included), plus
     /// drive rows on the `(joint, DOF)` pairs of `extra` (drives about to be set). Zero for a

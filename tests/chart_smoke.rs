@@ -40,11 +40,13 @@ fn quick_sweep_writes_every_chart() {
     let mut lines = csv.lines();
     assert_eq!(
         lines.next(),
-        Some("scene,method,dt,substeps,cpu_s_per_sim_s,traj_err,energy_drift,max_gap,status")
+        Some(
+            "scene,method,dt,substeps,cpu_s_per_sim_s,traj_err,energy_drift,max_gap,status,tolerance"
+        )
     );
     let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
     assert!(rows.len() > 50, "{} runs", rows.len());
-    assert!(rows.iter().all(|r| r.len() == 9), "ragged rows");
+    assert!(rows.iter().all(|r| r.len() == 10), "ragged rows");
     let pendulum = rows
         .iter()
         .find(|r| {
@@ -57,6 +59,15 @@ fn quick_sweep_writes_every_chart() {
     let err: f64 = pendulum[5].parse().expect("traj_err");
     assert_eq!(pendulum[8], "ok");
     assert!(err > 0.0 && err < 0.1, "pendulum error {err}");
+    // The adaptive fourth-order run on the pendulum asked for 1e-4 m over the run: honest
+    // error control keeps the achieved error within 3x of it (the bound).
+    let adaptive = rows
+        .iter()
+        .find(|r| r[0] == "a01_pendulum" && r[1] == "adaptive-order4" && r[9] == "1e-4")
+        .expect("the adaptive fourth-order pendulum at 1e-4");
+    assert_eq!(adaptive[8], "ok");
+    let err: f64 = adaptive[5].parse().expect("traj_err");
+    assert!(err > 0.0 && err < 3e-4, "adaptive pendulum error {err}");
 
     let mut charts = vec![
         "stability_chain".to_string(),

@@ -597,6 +597,7 @@ fn every_shipped_deck_parses() {
             "pendulum_z",
             "screw_jack",
             "slider_crank",
+            "slider_crank_spatial",
             "slider_crank_static",
             "stops_locks"
         ]

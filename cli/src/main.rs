@@ -89,6 +89,10 @@ struct RunArgs {
     /// No summary table, no progress.
     #[arg(long)]
     quiet: bool,
+    /// Keep the idle modes `mpc184 check` reports (a rod's free spin between two spherical
+    /// joints) instead of holding their spin at zero rate (the default on the Lagrange backend).
+    #[arg(long)]
+    keep_idle_modes: bool,
     /// Also write a self-contained HTML view of the run to FILE (3D bodies and joint frames,
     /// time slider and playback, events, time histories; no network needed).
     #[arg(long, value_name = "FILE")]
@@ -103,6 +107,10 @@ enum BackendArg {
 }
 
 #[derive(Clone, Copy, ValueEnum)]
+#[expect(
+    clippy::enum_variant_names,
+    reason = "the variants are the command-line values (first-order, ...)"
+)]
 enum IntegratorArg {
     FirstOrder,
     SecondOrder,
@@ -217,6 +225,7 @@ fn default_job() -> Result<(), Failure> {
         integrator: IntegratorArg::FirstOrder,
         every: 1,
         quiet: false,
+        keep_idle_modes: false,
         // The main job's view: open it in a browser.
         html: Some(default_out(Path::new(DEFAULT_NAME)).join("view.html")),
     };
@@ -327,23 +336,7 @@ fn check(path: &Path) -> Result<(), Failure> {
     }
     let grubler = model.dof_count();
     println!("DOF count (Grubler: 6 per moving body minus constraint equations): {grubler}");
-    // The rank of the constraint Jacobian at the initial pose: the true mobility, and the rows
-    // Grubler counts that depend on the others (their reactions are not unique).
-    match model.world.mobility(&[]) {
-        Ok(mobility) => {
-            let redundant = mobility as i64 - grubler;
-            println!(
-                "mobility (rank of the constraint Jacobian at the initial pose): {mobility} DOF; \
-                 {redundant} redundant constraint row(s){}",
-                if redundant > 0 {
-                    ": their share of the reactions is not unique (the solver sets it to zero)"
-                } else {
-                    ""
-                }
-            );
-        }
-        Err(e) => println!("mobility: not computed ({e})"),
-    }
+    print_mobility(&mut model, grubler);
     for s in &model.steps {
         println!(
             "load step {}: {} s to {} s, dt {:.6} s, {} steps",
@@ -357,6 +350,49 @@ fn check(path: &Path) -> Result<(), Failure> {
         }
     }
     Ok(())
+}
+
+/// The mobility at the initial pose against Grubler's count, and the idle modes.
+fn print_mobility(model: &mut DeckModel, grubler: i64) {
+    // The rank of the constraint Jacobian at the initial pose: the true mobility, and the rows
+    // Grubler counts that depend on the others (their reactions are not unique).
+    match model.world.mobility(&[]) {
+        Ok(mobility) => {
+            // Grubler counts the kinds' rows only, not the spin rows of removed idle modes.
+            let spins = if model.idle_modes_removed {
+                model.idle_modes.len() as i64
+            } else {
+                0
+            };
+            let redundant = mobility as i64 + spins - grubler;
+            println!(
+                "mobility (rank of the constraint Jacobian at the initial pose): {mobility} DOF; \
+                 {redundant} redundant constraint row(s){}",
+                if redundant > 0 {
+                    ": their share of the reactions is not unique (the solver sets it to zero)"
+                } else {
+                    ""
+                }
+            );
+        }
+        Err(e) => println!("mobility: not computed ({e})"),
+    }
+    if model.idle_modes.is_empty() {
+        println!("idle modes: none");
+    } else {
+        println!(
+            "idle modes ({}):",
+            if model.idle_modes_removed {
+                "removed: each body's spin held at zero rate, one row each in the mobility above"
+            } else {
+                "kept: the Rapier backends cannot hold them; they are free DOFs in the mobility \
+                 above"
+            }
+        );
+        for m in &model.idle_modes {
+            println!("  {}", m.describe());
+        }
+    }
 }
 
 fn method_name(m: ConstraintMethod) -> &'static str {
@@ -373,6 +409,7 @@ fn run(deck: &Deck, args: &RunArgs, out: &Path) -> Result<Summary, Failure> {
             backend: args.backend.into(),
             substeps: args.substeps as usize,
             integrator: args.integrator.into(),
+            remove_idle_modes: !args.keep_idle_modes,
         },
     )?;
     if !args.quiet {

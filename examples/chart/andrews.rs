@@ -49,6 +49,7 @@ fn run_one(method: Method, dt: f64, substeps: usize) -> Run {
         energy: f64::NAN,
         gap: f64::NAN,
         status: "ok".into(),
+        tol: None,
     };
     let text = deck_text(method).replace(a03::DELTIM, &format!("DELTIM,{dt:e}"));
     let deck = match parse_str(&text, "andrews_squeezer.inp") {
@@ -61,11 +62,8 @@ fn run_one(method: Method, dt: f64, substeps: usize) -> Run {
     let options = BuildOptions {
         backend: method.backend(),
         substeps,
-        integrator: if method == Method::Rattle {
-            Integrator::Rattle
-        } else {
-            Integrator::SymplecticEuler
-        },
+        integrator: settings(method, dt, substeps).integrator,
+        ..BuildOptions::default()
     };
     let prepared = DeckModel::build(&deck, options).and_then(|mut m| {
         m.begin_load_step(0)?;

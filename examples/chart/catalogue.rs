@@ -8,6 +8,14 @@ pub(crate) enum Method {
     Lagrange,
     /// The Lagrange backend with the second-order integrator (RATTLE).
     Rattle,
+    /// The Lagrange backend with the fourth-order composition of RATTLE substeps.
+    Order4,
+    /// The adaptive step control (step doubling, `StepControl::Adaptive`) on RATTLE or on the
+    /// fourth-order composition, at dt 1/30 over the study's tolerances (the work-precision
+    /// charts only).
+    Adaptive {
+        order4: bool,
+    },
     Penalty(f64),
     Impulse,
     Multibody,
@@ -43,20 +51,29 @@ pub(crate) const PEERS: [Method; 4] = [
     },
 ];
 
-/// The methods with runs in `runs`: this crate's ([`METHODS`]) then the peers found.
+/// The adaptive variants, in the order the charts list them.
+pub(crate) const ADAPTIVE: [Method; 2] = [
+    Method::Adaptive { order4: false },
+    Method::Adaptive { order4: true },
+];
+
+/// The methods with runs in `runs`: this crate's fixed-step ones ([`METHODS`]), then the
+/// adaptive ones and the peers found.
 pub(crate) fn methods_in(runs: &[&Run]) -> Vec<Method> {
     let mut out = METHODS.to_vec();
     out.extend(
-        PEERS
+        ADAPTIVE
             .iter()
+            .chain(&PEERS)
             .filter(|p| runs.iter().any(|r| r.method == **p)),
     );
     out
 }
 
-pub(crate) const METHODS: [Method; 7] = [
+pub(crate) const METHODS: [Method; 8] = [
     Method::Lagrange,
     Method::Rattle,
+    Method::Order4,
     Method::Penalty(1e4),
     Method::Penalty(1e6),
     Method::Penalty(1e8),
@@ -69,6 +86,9 @@ impl Method {
         match self {
             Method::Lagrange => "lagrange".into(),
             Method::Rattle => "lagrange-rattle".into(),
+            Method::Order4 => "lagrange-order4".into(),
+            Method::Adaptive { order4: false } => "adaptive-rattle".into(),
+            Method::Adaptive { order4: true } => "adaptive-order4".into(),
             Method::Penalty(k) => format!("penalty-{k:.0e}"),
             Method::Impulse => "rapier-impulse".into(),
             Method::Multibody => "rapier-multibody".into(),
@@ -86,6 +106,7 @@ impl Method {
         METHODS
             .iter()
             .chain(&PEERS)
+            .chain(&ADAPTIVE)
             .chain(&[Method::RapierAlone])
             .copied()
             .find(|m| m.name() == name)
@@ -93,7 +114,11 @@ impl Method {
 
     pub(crate) fn backend(self) -> Backend {
         match self {
-            Method::Lagrange | Method::Rattle | Method::Penalty(_) => Backend::Lagrange,
+            Method::Lagrange
+            | Method::Rattle
+            | Method::Order4
+            | Method::Adaptive { .. }
+            | Method::Penalty(_) => Backend::Lagrange,
             Method::Impulse | Method::RapierAlone | Method::MuJoCo { .. } => Backend::RapierImpulse,
             Method::Multibody => Backend::RapierMultibody,
         }
@@ -103,6 +128,9 @@ impl Method {
         match self {
             Method::Lagrange => RGBColor(31, 119, 180),
             Method::Rattle => RGBColor(148, 103, 189),
+            Method::Order4 => RGBColor(188, 189, 34),
+            Method::Adaptive { order4: false } => RGBColor(84, 39, 143),
+            Method::Adaptive { order4: true } => RGBColor(110, 112, 0),
             Method::Penalty(k) if k < 1e5 => RGBColor(255, 187, 120),
             Method::Penalty(k) if k < 1e7 => RGBColor(255, 127, 14),
             Method::Penalty(_) => RGBColor(140, 86, 75),
@@ -303,10 +331,10 @@ pub(crate) fn settings(method: Method, dt: f64, substeps: usize) -> WorldSetting
         dt: dt as Real,
         substeps,
         backend: method.backend(),
-        integrator: if method == Method::Rattle {
-            Integrator::Rattle
-        } else {
-            Integrator::SymplecticEuler
+        integrator: match method {
+            Method::Rattle | Method::Adaptive { order4: false } => Integrator::Rattle,
+            Method::Order4 | Method::Adaptive { order4: true } => Integrator::Composition4,
+            _ => Integrator::SymplecticEuler,
         },
         ..WorldSettings::default()
     }

@@ -8,6 +8,8 @@ pub(crate) struct Config {
     /// Time steps as 1/x.
     pub(crate) rates: Vec<u32>,
     pub(crate) substeps: Vec<usize>,
+    /// Requested trajectory errors of the adaptive runs (m over the scene's duration).
+    pub(crate) tolerances: Vec<f64>,
     /// Simulated seconds per scene: A01, conical pendulum, A02, A04, chain, slider-crank.
     pub(crate) durations: [f64; 6],
     pub(crate) chain_links: usize,
@@ -37,6 +39,7 @@ impl Config {
                 maps_only: false,
                 rates: vec![30, 60],
                 substeps: vec![1, 2],
+                tolerances: vec![1e-2, 1e-4],
                 durations: [1.0; 6],
                 chain_links: 20,
                 h_ref: 1.0 / 960.0,
@@ -58,6 +61,7 @@ impl Config {
                 maps_only: false,
                 rates: vec![30, 60, 120, 240, 480, 960],
                 substeps: vec![1, 2, 4, 8],
+                tolerances: vec![1e-2, 1e-3, 1e-4, 1e-5, 1e-6],
                 durations: [10.0, 10.0, 10.0, 10.0, 2.0, 5.0],
                 chain_links: 100,
                 h_ref: 1.0 / (4.0 * 960.0 * 8.0),

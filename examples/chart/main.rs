@@ -178,7 +178,9 @@ fn run(cfg: &Config, out: &Path) -> DynResult<()> {
     plotters::style::register_font("sans-serif", FontStyle::Normal, FONT)
         .map_err(|_| "the bundled font does not load")?;
     std::fs::create_dir_all(out)?;
-    let wp_runs = SCENES.len() * METHODS.len() * cfg.rates.len() * cfg.substeps.len();
+    let wp_runs = SCENES.len()
+        * (METHODS.len() * cfg.rates.len() * cfg.substeps.len()
+            + ADAPTIVE.len() * cfg.tolerances.len());
     let stab = METHODS.len() * cfg.stability_ratios.len() * cfg.substeps.len();
     let scal = 5 * cfg.scaling_n.len();
     let pen = (cfg.penalty_ks.len() + 1) * cfg.penalty_rates.len();
@@ -319,13 +321,64 @@ fn sweep(cfg: &Config, out: &Path, progress: &mut Progress) -> DynResult<(Vec<Ru
                         energy,
                         gap,
                         status,
+                        tol: None,
                     });
                 }
+            }
+        }
+        for method in ADAPTIVE {
+            for &tol in &cfg.tolerances {
+                progress.tick(&format!("{} {} tol {tol:.0e}", scene.key(), method.name()));
+                runs.extend(adaptive_run(scene, cfg, method, tol, &r.points));
             }
         }
         refs.push((scene, r.how, r.floor));
     }
     Ok((runs, refs))
+}
+
+/// One adaptive run: dt 1/30 (the frame clock, the output step: step doubling keeps at least two
+/// substeps, so the finest fixed setting it can match is 1/60 x1), one substep to start with, the step control
+/// asked for `tol` over the scene's duration as a position error per step of `tol dt /
+/// duration` (error per unit step: the local errors of a smooth motion add up about
+/// linearly), at most 4096 substeps per step.
+fn adaptive_run(
+    scene: Scene,
+    cfg: &Config,
+    method: Method,
+    tol: f64,
+    reference: &[[f64; 3]],
+) -> Option<Run> {
+    let dt = OUTPUT_STEP;
+    let mut b = build(scene, cfg, method, dt, 1)?;
+    let secs = cfg.durations[scene.index()];
+    b.world
+        .set_step_control(StepControl::Adaptive {
+            tolerance: (tol * dt / secs) as Real,
+            max_substeps: 4096,
+        })
+        .ok()?;
+    let (cpu, traj, energy, gap, status) = simulate(
+        scene,
+        b,
+        dt,
+        secs,
+        Some(reference),
+        cfg.budget,
+        0.1 * scene.length(),
+    );
+    Some(Run {
+        scene,
+        method,
+        dt,
+        substeps: 1,
+        cpu,
+        traj,
+        energy,
+        gap,
+        status,
+        tol: Some(tol),
+    })
 }
 
 /// The work-precision, energy and order charts of every scene.

@@ -15,6 +15,8 @@ pub(crate) struct Run {
     pub(crate) energy: f64,
     pub(crate) gap: f64,
     pub(crate) status: String,
+    /// The requested trajectory error of an adaptive run (m; `None` for a fixed step).
+    pub(crate) tol: Option<f64>,
 }
 
 impl Run {
@@ -27,7 +29,10 @@ impl Run {
     }
 
     pub(crate) fn setting(&self) -> String {
-        format!("1/{:.0} x{}", 1.0 / self.dt, self.substeps)
+        match self.tol {
+            Some(tol) => format!("tol {tol:.0e}"),
+            None => format!("1/{:.0} x{}", 1.0 / self.dt, self.substeps),
+        }
     }
 }
 
@@ -99,12 +104,12 @@ pub(crate) fn simulate(
 
 pub(crate) fn write_csv(path: &Path, runs: &[Run]) -> DynResult<()> {
     let mut s = String::from(
-        "scene,method,dt,substeps,cpu_s_per_sim_s,traj_err,energy_drift,max_gap,status\n",
+        "scene,method,dt,substeps,cpu_s_per_sim_s,traj_err,energy_drift,max_gap,status,tolerance\n",
     );
     for r in runs {
         writeln!(
             s,
-            "{},{},{:.8},{},{:.4e},{:.4e},{:.4e},{:.4e},{}",
+            "{},{},{:.8},{},{:.4e},{:.4e},{:.4e},{:.4e},{},{}",
             r.scene.key(),
             r.method.name(),
             r.dt,
@@ -113,7 +118,8 @@ pub(crate) fn write_csv(path: &Path, runs: &[Run]) -> DynResult<()> {
             r.traj,
             r.energy,
             r.gap,
-            r.status.replace(',', ";")
+            r.status.replace(',', ";"),
+            r.tol.map_or(String::new(), |t| format!("{t:.0e}"))
         )?;
     }
     std::fs::write(path, s)?;

@@ -77,6 +77,7 @@ pub(crate) fn peer_runs(out: &Path) -> DynResult<Vec<Run>> {
             energy: number(FILE, line, "energy_drift", &r[6])?,
             gap: number(FILE, line, "max_gap", &r[7])?,
             status: r[8..].join(";"),
+            tol: None,
         });
     }
     Ok(runs)

@@ -66,7 +66,10 @@ impl Chart<'_> {
 /// Per method, the smallest trajectory error at each substep size `h = dt / substeps` (ok runs).
 pub(crate) fn by_substep(runs: &[&Run], method: Method) -> Vec<(f64, f64)> {
     let mut pts: Vec<(f64, f64)> = Vec::new();
-    for r in runs.iter().filter(|r| r.method == method && r.ok()) {
+    for r in runs
+        .iter()
+        .filter(|r| r.method == method && r.ok() && r.tol.is_none())
+    {
         let h = r.dt / r.substeps as f64;
         let e = r.traj.max(ERR_FLOOR);
         match pts.iter_mut().find(|(x, _)| (x / h - 1.0).abs() < 1e-9) {

@@ -101,6 +101,7 @@ pub(crate) fn summary(
         for method in methods_in(&rs) {
             method_row(&mut s, &rs, method);
         }
+        adaptive_table(&mut s, &rs);
         let _ = writeln!(s);
     }
     let _ = writeln!(
@@ -142,6 +143,44 @@ pub(crate) fn summary(
 
 /// One method's row of a scene's table: runs, cheapest run to each IFToMM level, observed
 /// order, best error, failures.
+/// Requested against achieved for the adaptive runs of one scene, with the cheapest fixed-step
+/// run (any of this crate's methods) that reaches the achieved error.
+fn adaptive_table(s: &mut String, rs: &[&Run]) {
+    let adaptive: Vec<&Run> = rs.iter().copied().filter(|r| r.tol.is_some()).collect();
+    if adaptive.is_empty() {
+        return;
+    }
+    let _ = writeln!(
+        s,
+        "\nAdaptive step control (dt 1/30, step doubling, per-step tolerance = requested x dt / duration):\n\n\
+         | method | requested (m) | achieved (m) | achieved / requested | CPU s/s | cheapest fixed step reaching it | status |\n|---|---|---|---|---|---|---|"
+    );
+    for r in adaptive {
+        let tol = r.tol.unwrap_or(f64::NAN);
+        let fixed = rs
+            .iter()
+            .filter(|f| {
+                f.tol.is_none()
+                    && f.ok()
+                    && f.traj <= r.traj
+                    && !matches!(f.method, Method::MuJoCo { .. })
+            })
+            .min_by(|a, b| a.cpu.total_cmp(&b.cpu))
+            .map_or("none".to_string(), |f| {
+                format!("{} {} ({:.2e} s/s)", f.method.name(), f.setting(), f.cpu)
+            });
+        let _ = writeln!(
+            s,
+            "| {} | {tol:.0e} | {:.1e} | {:.2} | {:.2e} | {fixed} | {} |",
+            r.method.name(),
+            r.traj,
+            r.traj / tol,
+            r.cpu,
+            r.status
+        );
+    }
+}
+
 fn method_row(s: &mut String, rs: &[&Run], method: Method) {
     let mine: Vec<&Run> = rs.iter().copied().filter(|r| r.method == method).collect();
     if mine.is_empty() {

@@ -163,7 +163,7 @@ impl Island {
                 self.kin[r] = kin;
                 let k_pen = match row {
                     RowKind::Linear { .. } | RowKind::Screw { .. } | RowKind::Distance { .. } => kd,
-                    RowKind::Drive { .. } => None,
+                    RowKind::Drive { .. } | RowKind::Spin { .. } => None,
                     RowKind::Angular { .. } => kr,
                 };
                 self.penalty[r] = k_pen.is_some();

@@ -88,6 +88,10 @@ pub struct BuildOptions {
     pub substeps: usize,
     /// Time integration of the Lagrange backend (default first order).
     pub integrator: crate::world::Integrator,
+    /// Remove the idle modes found at time 0 (default on; see [`crate::idle`]): on the
+    /// Lagrange backend each gets a spin row, on the Rapier backends it is only reported (a
+    /// note). Either way they are listed in [`DeckModel::idle_modes`].
+    pub remove_idle_modes: bool,
 }
 
 impl Default for BuildOptions {
@@ -96,6 +100,7 @@ impl Default for BuildOptions {
             backend: Backend::Lagrange,
             substeps: 4,
             integrator: crate::world::Integrator::default(),
+            remove_idle_modes: true,
         }
     }
 }
@@ -206,6 +211,11 @@ pub struct DeckModel {
     pub notes: Vec<String>,
     /// The load steps.
     pub steps: Vec<StepPlan>,
+    /// The idle modes found at time 0 ([`crate::idle`]), removed when
+    /// [`DeckModel::idle_modes_removed`].
+    pub idle_modes: Vec<crate::idle::IdleMode>,
+    /// The idle modes were removed (spin rows added).
+    pub idle_modes_removed: bool,
     deck: Deck,
     /// Node -> (body, offset from the body's origin in its local frame).
     node_body: BTreeMap<u32, (Option<usize>, Vector)>,
@@ -330,6 +340,25 @@ impl DeckModel {
         velocities::set_initial(
             deck, &mut world, &bodies, &node_body, static_run, &mut notes,
         )?;
+        let idle_modes = world.idle_modes();
+        let idle_modes_removed = options.remove_idle_modes
+            && !idle_modes.is_empty()
+            && options.backend == Backend::Lagrange;
+        if idle_modes_removed {
+            world.remove_idle_modes()?;
+        }
+        for m in &idle_modes {
+            notes.push(format!(
+                "{}: idle mode {}{}",
+                deck.file,
+                m.describe(),
+                if idle_modes_removed {
+                    ": removed (spin held at zero rate)"
+                } else {
+                    ": kept"
+                }
+            ));
+        }
         let zero = profile(0.0, 0.0, 0.0, 0.0, LoadRamp::Stepped);
         let mut model = DeckModel {
             file: deck.file.clone(),
@@ -340,6 +369,8 @@ impl DeckModel {
             springs,
             notes,
             steps,
+            idle_modes,
+            idle_modes_removed,
             deck: deck.clone(),
             node_body,
             nodal: Vec::new(),
