@@ -33,8 +33,10 @@ pub enum StepControl {
     Fixed,
     /// Step doubling to a tolerance: the step is taken with `n` and with `2 n` substeps from
     /// the same state (the checkpoint restores it bit for bit); the difference of the bodies'
-    /// positions (rotations times the model size), over `2^p - 1` for the scheme's order `p`
-    /// (2 for RATTLE, else 1), estimates the error of the `2 n` result, which is kept when the
+    /// positions (rotations times the model size) plus `dt` times the difference of their
+    /// velocities (an impact, a lock engaging or a stick/slip change shows in the velocities
+    /// first), over `2^p - 1` for the scheme's order `p` (4 for the composition, 2 for RATTLE,
+    /// else 1), estimates the error of the `2 n` result, which is kept when the
     /// estimate is within `tolerance`; otherwise `n` doubles and the step is taken again, up to
     /// `max_substeps`. `n` starts at `substeps` and follows the estimate from step to step
     /// (halved when even the `n` result would have passed). Costs about three times a fixed
@@ -42,6 +44,12 @@ pub enum StepControl {
     Adaptive {
         /// Largest estimated position error per step (m).
         tolerance: Real,
+        /// Largest difference per step between the two runs' dissipated energy and work (J;
+        /// `Real::INFINITY`: no energy control). An event that lands both runs on the same
+        /// state but books a different energy (a lock engaging: the kinetic energy it takes
+        /// depends on the substep it lands in, O(h)) is refined by this, not by `tolerance`.
+        /// Taken as the error itself (events are first order whatever the scheme).
+        energy_tolerance: Real,
         /// Most substeps per step (a step that needs more is kept with a note in the stats).
         max_substeps: usize,
     },

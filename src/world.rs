@@ -70,6 +70,13 @@ pub struct StepStats {
     pub largest_substep: Real,
     /// The error estimate of the last step (m).
     pub last_estimate: Real,
+    /// Substeps integrated in all, the `n` and `2 n` runs of every try (the cost).
+    pub substeps: u64,
+    /// The start time of the last step that was cut (taken again with more substeps; s), and
+    /// a joint on the body whose error estimate cut it (`None`: no cut yet, or a body without
+    /// joints). An event (a stop's impact, a lock engaging, a stick/slip change) shows here:
+    /// its velocity jump is part of the estimate.
+    pub last_cut: Option<(Real, Option<JointId>)>,
     /// The `n` the next step starts with (0: the settings' substeps).
     next: usize,
 }
@@ -579,8 +586,9 @@ impl Mpc184World {
             StepControl::Fixed => self.step_unchecked(dt, n),
             StepControl::Adaptive {
                 tolerance,
+                energy_tolerance,
                 max_substeps,
-            } => self.step_adaptive(dt, tolerance, max_substeps),
+            } => self.step_adaptive(dt, [tolerance, energy_tolerance], max_substeps),
         };
         let result = stepped.and_then(|()| match before {
             Some((e, floor)) => self.energy_guard(&e, floor),
@@ -708,7 +716,7 @@ impl Mpc184World {
     fn step_adaptive(
         &mut self,
         dt: Real,
-        tolerance: Real,
+        [tolerance, energy_tolerance]: [Real; 2],
         max_substeps: usize,
     ) -> Result<(), Error> {
         let order = self.backend.order(self.core.settings.integrator);
@@ -723,16 +731,31 @@ impl Mpc184World {
         let size = self.model_size();
         loop {
             self.step_unchecked(dt, n)?;
-            let coarse = self.dynamic_poses();
+            let coarse = self.dynamic_states();
+            let coarse_ledger = self.core.progress.ledger;
             self.restore_checkpoint();
             self.step_unchecked(dt, 2 * n)?;
-            let diff = coarse
+            self.core.stats.substeps += 3 * n as u64;
+            let ledger = self.core.progress.ledger;
+            let energy = (ledger.dissipated - coarse_ledger.dissipated).abs()
+                + (ledger.work - coarse_ledger.work).abs();
+            // Per body: the position difference, plus the velocity difference over the step
+            // (a lock engaging or a stop's impact lands on the same position in both runs but
+            // not with the same velocity; this is how such events refine the step).
+            let (diff, worst) = coarse
                 .iter()
-                .zip(self.dynamic_poses())
-                .map(|(a, b)| (a.0 - b.0).length() + size * a.1.angle_between(b.1))
-                .fold(0.0 as Real, Real::max);
+                .zip(self.dynamic_states())
+                .map(|(a, b)| {
+                    let d = (a.1 - b.1).length()
+                        + size * a.2.angle_between(b.2)
+                        + dt * ((a.3 - b.3).length() + size * (a.4 - b.4).length());
+                    (d, a.0)
+                })
+                .fold((0.0 as Real, None), |acc, (d, h)| {
+                    if d > acc.0 { (d, Some(h)) } else { acc }
+                });
             let estimate = diff / ((1 << order) - 1) as Real;
-            if !estimate.is_finite() {
+            if !(estimate.is_finite() && energy.is_finite()) {
                 return Err(Error::Diverged {
                     time: self.time(),
                     joint: None,
@@ -740,10 +763,11 @@ impl Mpc184World {
                 });
             }
             let stats = &mut self.core.stats;
-            if estimate <= tolerance || 2 * n >= max {
+            let met = estimate <= tolerance && energy <= energy_tolerance;
+            if met || 2 * n >= max {
                 let h = dt / (2 * n) as Real;
                 stats.accepted += 1;
-                stats.unmet += u64::from(estimate > tolerance);
+                stats.unmet += u64::from(!met);
                 stats.last_estimate = estimate;
                 stats.smallest_substep = if stats.smallest_substep == 0.0 {
                     h
@@ -753,7 +777,9 @@ impl Mpc184World {
                 stats.largest_substep = stats.largest_substep.max(h);
                 // The n run alone would have passed (its error is about 2^p times the
                 // estimate): the next step starts at half.
-                stats.next = if estimate * (1 << order) as Real <= tolerance {
+                stats.next = if estimate * (1 << order) as Real <= tolerance
+                    && 2.0 * energy <= energy_tolerance
+                {
                     (n / 2).max(1)
                 } else {
                     n
@@ -761,19 +787,25 @@ impl Mpc184World {
                 return Ok(());
             }
             stats.rejected += 1;
+            let joint = worst.and_then(|h| self.core.joints.attached_to(h).first().copied());
             self.restore_checkpoint();
+            self.core.stats.last_cut = Some((self.time(), joint));
             // Twice the substeps, at most `max` in the kept run.
             n = (2 * n).min(max / 2);
         }
     }
 
-    /// The dynamic bodies' centres of mass and orientations, in the body set's order.
-    fn dynamic_poses(&self) -> Vec<(Vector, Rotation)> {
+    /// The dynamic bodies' handles, centres of mass, orientations and velocities, in the body
+    /// set's order.
+    fn dynamic_states(&self) -> Vec<(RigidBodyHandle, Vector, Rotation, Vector, Vector)> {
         self.physics
             .bodies
             .iter()
             .filter(|(_, rb)| rb.is_dynamic())
-            .map(|(_, rb)| (rb.center_of_mass(), rb.position().rotation))
+            .map(|(h, rb)| {
+                let (v, w) = self.velocity_of(h);
+                (h, rb.center_of_mass(), rb.position().rotation, v, w)
+            })
             .collect()
     }
 
@@ -962,9 +994,17 @@ impl Mpc184World {
 fn check_control(control: StepControl) -> Result<(), Error> {
     if let StepControl::Adaptive {
         tolerance,
+        energy_tolerance,
         max_substeps,
     } = control
     {
+        if !(energy_tolerance > 0.0) {
+            return Err(Error::InvalidSetting {
+                field: "control.energy_tolerance",
+                value: energy_tolerance,
+                reason: "the energy tolerance must be positive (infinity: no energy control)",
+            });
+        }
         if !(tolerance.is_finite() && tolerance > 0.0) {
             return Err(Error::InvalidSetting {
                 field: "control.tolerance",

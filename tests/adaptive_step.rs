@@ -31,6 +31,7 @@ fn a_retried_step_is_the_fixed_step_bit_for_bit() {
     // (below about 2e-12 the projection's own tolerance, 1e-10, is the floor).
     let control = StepControl::Adaptive {
         tolerance: 5e-12,
+        energy_tolerance: Real::INFINITY,
         max_substeps: 4096,
     };
     let half = rapier3d_mpc184::math::PI / 2.0;
@@ -65,6 +66,7 @@ fn a_retried_step_is_the_fixed_step_bit_for_bit() {
 fn the_tolerance_holds_and_the_period_follows() {
     let control = StepControl::Adaptive {
         tolerance: 1e-7,
+        energy_tolerance: Real::INFINITY,
         max_substeps: 4096,
     };
     let half = rapier3d_mpc184::math::PI / 2.0;

@@ -634,14 +634,25 @@ fn print_summary(
     let stats = model.world.step_stats();
     let substeps = if stats.accepted > 0 {
         // AUTOTS: what the step doubling chose.
+        let cut = match stats.last_cut {
+            Some((t, joint)) => {
+                let element = joint
+                    .and_then(|id| model.joints.iter().find(|j| j.id == id))
+                    .map_or_else(String::new, |j| format!(", at joint element {}", j.element));
+                format!("; last cut in the step from t = {t:.6} s{element}")
+            }
+            None => String::new(),
+        };
         format!(
             "automatic time stepping: {} steps, {} retried with more substeps, substeps from \
-             {:.4e} to {:.4e} s, {} step(s) at the dtmin limit over the tolerance",
+             {:.4e} to {:.4e} s, {} step(s) at the dtmin limit over the tolerance, {} substeps \
+             integrated in all{cut}",
             stats.accepted,
             stats.rejected,
             stats.smallest_substep,
             stats.largest_substep,
-            stats.unmet
+            stats.unmet,
+            stats.substeps
         )
     } else {
         format!("{} substeps per step", settings.substeps)

@@ -355,6 +355,7 @@ fn adaptive_run(
     b.world
         .set_step_control(StepControl::Adaptive {
             tolerance: (tol * dt / secs) as Real,
+            energy_tolerance: Real::INFINITY,
             max_substeps: 4096,
         })
         .ok()?;

@@ -101,7 +101,11 @@ pub(crate) fn summary(
         for method in methods_in(&rs) {
             method_row(&mut s, &rs, method);
         }
-        adaptive_table(&mut s, &rs);
+        let floor = refs
+            .iter()
+            .find(|(sc, _, _)| *sc == scene)
+            .map_or(0.0, |r| r.2);
+        adaptive_table(&mut s, &rs, floor);
         let _ = writeln!(s);
     }
     let _ = writeln!(
@@ -145,7 +149,8 @@ pub(crate) fn summary(
 /// order, best error, failures.
 /// Requested against achieved for the adaptive runs of one scene, with the cheapest fixed-step
 /// run (any of this crate's methods) that reaches the achieved error.
-fn adaptive_table(s: &mut String, rs: &[&Run]) {
+/// `floor`: the reference's own error (m); a request below it cannot be judged.
+fn adaptive_table(s: &mut String, rs: &[&Run], floor: f64) {
     let adaptive: Vec<&Run> = rs.iter().copied().filter(|r| r.tol.is_some()).collect();
     if adaptive.is_empty() {
         return;
@@ -176,7 +181,11 @@ fn adaptive_table(s: &mut String, rs: &[&Run]) {
             r.traj,
             r.traj / tol,
             r.cpu,
-            r.status
+            if tol < floor {
+                format!("{} (requested below the reference's floor {floor:.1e} m)", r.status)
+            } else {
+                r.status.clone()
+            }
         );
     }
 }

@@ -55,6 +55,8 @@ impl DeckModel {
                 } else {
                     -tol as Real
                 },
+                // ANSYS' time-step control has no energy criterion of this kind.
+                energy_tolerance: Real::INFINITY,
                 max_substeps,
             },
             None => StepControl::Fixed,
