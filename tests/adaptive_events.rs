@@ -95,7 +95,10 @@ fn the_lock_step_is_refined_to_the_energy_tolerance() {
     assert_eq!(joint, Some(id));
     // The lock is reached at t = 0.187 s: the cut step is the one from 11/60 s that holds it
     // (a step start is a multiple of 1/60 s up to round-off).
-    assert!((cut_time - 11.0 / 60.0).abs() < 1e-9, "cut at t = {cut_time}");
+    assert!(
+        (cut_time - 11.0 / 60.0).abs() < 1e-9,
+        "cut at t = {cut_time}"
+    );
     // The cheapest fixed step reaching the same error.
     let mut fixed = None;
     for substeps in [4, 16, 64, 256, 1024, 4096] {

@@ -182,7 +182,10 @@ fn adaptive_table(s: &mut String, rs: &[&Run], floor: f64) {
             r.traj / tol,
             r.cpu,
             if tol < floor {
-                format!("{} (requested below the reference's floor {floor:.1e} m)", r.status)
+                format!(
+                    "{} (requested below the reference's floor {floor:.1e} m)",
+                    r.status
+                )
             } else {
                 r.status.clone()
             }
