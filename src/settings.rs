@@ -39,8 +39,13 @@ pub enum StepControl {
     /// else 1), estimates the error of the `2 n` result, which is kept when the
     /// estimate is within `tolerance`; otherwise `n` doubles and the step is taken again, up to
     /// `max_substeps`. `n` starts at `substeps` and follows the estimate from step to step
-    /// (halved when even the `n` result would have passed). Costs about three times a fixed
-    /// step of `n` substeps; [`crate::Mpc184World::step_stats`] counts the steps and retries.
+    /// (halved when even the `n` result would have passed). A checked step costs about three
+    /// times a fixed step of `n` substeps, so on RATTLE and the composition only every 8th
+    /// step is checked: the 7 between take the checked step's `2 n` substeps unless a stop,
+    /// lock or stick/slip state changes in one of them, which is then taken again under the
+    /// check (events cut the step). The first-order scheme and the Rapier backends check every
+    /// step (each change of their substep shifts their phase by O(h)).
+    /// [`crate::Mpc184World::step_stats`] counts the steps, retries and substeps.
     Adaptive {
         /// Largest estimated position error per step (m).
         tolerance: Real,
