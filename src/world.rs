@@ -79,10 +79,6 @@ pub struct StepStats {
     pub last_cut: Option<(Real, Option<JointId>)>,
     /// The `n` the next step starts with (0: the settings' substeps).
     next: usize,
-    /// Steps left to take without the doubling check (see [`StepControl::Adaptive`]), and
-    /// their substeps.
-    trusted: usize,
-    trusted_n: usize,
 }
 
 impl Core {
@@ -732,25 +728,6 @@ impl Mpc184World {
             stats.next
         }
         .clamp(1, max / 2);
-        if self.core.stats.trusted > 0 {
-            let before = self.event_signature();
-            let m = self.core.stats.trusted_n;
-            self.step_unchecked(dt, m)?;
-            if self.event_signature() == before {
-                let stats = &mut self.core.stats;
-                stats.trusted -= 1;
-                stats.accepted += 1;
-                stats.substeps += m as u64;
-                let h = dt / m as Real;
-                stats.smallest_substep = stats.smallest_substep.min(h);
-                stats.largest_substep = stats.largest_substep.max(h);
-                return Ok(());
-            }
-            // A stop, lock or stick/slip state changed in the step: take it again under the
-            // error control, which cuts it until the event is resolved.
-            self.restore_checkpoint();
-            self.core.stats.trusted = 0;
-        }
         let size = self.model_size();
         loop {
             self.step_unchecked(dt, n)?;
@@ -807,17 +784,6 @@ impl Mpc184World {
                 } else {
                     n
                 };
-                // The next steps go unchecked with the checked step's `2 n` substeps (fewer, as
-                // the estimate would allow, made the AUTOTS pendulum deck's RATTLE period 2.2e-5
-                // off instead of 5.6e-6: the tolerance per step is loose for a period).
-                // The first-order scheme checks every step: its velocities live at half steps
-                // and every change of its substep shifts its phase by O(h) (the same deck:
-                // 9.3e-5 with unchecked steps, 7.8e-6 checking every step).
-                stats.trusted = 0;
-                if met && order > 1 {
-                    stats.trusted = CHECK_EVERY - 1;
-                    stats.trusted_n = 2 * n;
-                }
                 return Ok(());
             }
             stats.rejected += 1;
@@ -827,19 +793,6 @@ impl Mpc184World {
             // Twice the substeps, at most `max` in the kept run.
             n = (2 * n).min(max / 2);
         }
-    }
-
-    /// Every joint's stop, lock and stick/slip state: a change in a step is an event.
-    fn event_signature(&self) -> Vec<(u8, u8, u8)> {
-        self.core
-            .joints
-            .iter()
-            .map(|e| {
-                let o = &e.state.output;
-                let friction = o.friction.map_or(0, |f| 1 + u8::from(f.slipping));
-                (o.stops, o.locks, friction)
-            })
-            .collect()
     }
 
     /// The dynamic bodies' handles, centres of mass, orientations and velocities, in the body
@@ -1036,10 +989,6 @@ impl Mpc184World {
         }
     }
 }
-
-/// The adaptive control checks every this many steps (and at every event); the steps between
-/// take the last check's substeps.
-const CHECK_EVERY: usize = 8;
 
 /// A step control's values are usable (see [`Mpc184World::set_step_control`]).
 fn check_control(control: StepControl) -> Result<(), Error> {

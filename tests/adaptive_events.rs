@@ -114,15 +114,14 @@ fn the_lock_step_is_refined_to_the_energy_tolerance() {
 }
 
 /// The stop pendulum of `tests/rattle_stop.rs` (1 kg bob 1 m below a revolute z, 2 m/s between
-/// stops at +-20 deg) under RATTLE with the adaptive control: the control checks only every 8th
-/// step, so an impact usually falls in an unchecked step; the change of the stop state sends
-/// that step back under the check. Checked: every one of the impacts in 10 s cut a step (the
-/// cut is reported with the hinge), and across every impact step the energy changes by at most
-/// 1e-6 m g L (the target; RATTLE's energy-consistent impact). Measured: 27 impacts,
-/// 28 steps cut, 7.0e-9 m g L at most across an impact (the fixed step at 1/60 x 4: 3.7e-7), for
-/// 14 506 substeps in 600 steps (the fixed x4: 2400).
+/// stops at +-20 deg) under RATTLE with the adaptive control at 1e-6 m per step. The impact
+/// reverses the velocity, which the estimate's velocity term sees. Checked: at least as many
+/// steps cut as impacts in 10 s (each cut reported with the hinge), and across every impact step
+/// the energy changes by at most 1e-6 m g L (the target; RATTLE's energy-consistent
+/// impact). Measured: 27 impacts, 28 steps cut, 7.0e-9 m g L at most across an impact (the
+/// fixed step at 1/60 x 4: 3.7e-7), for 10 446 substeps in 600 steps (the fixed x4: 2400).
 #[test]
-fn stop_impacts_send_unchecked_steps_back_under_the_check() {
+fn stop_impacts_cut_the_step() {
     let mut world = Mpc184World::new(WorldSettings {
         substeps: 2,
         integrator: Integrator::Rattle,
