@@ -872,16 +872,7 @@ impl Mpc184World {
     /// still reported by [`Mpc184World::idle_modes`]); a joint with no room for another row
     /// (world unchanged).
     pub fn remove_idle_modes(&mut self) -> Result<Vec<crate::idle::IdleMode>, Error> {
-        if self.core.settings.backend != crate::settings::Backend::Lagrange {
-            return Err(Error::Unsupported {
-                what: format!(
-                    "removing idle modes on the {} backend",
-                    self.core.settings.backend.name()
-                ),
-                hint: "the spin row is a Lagrange-backend row; use the Lagrange backend, or                        give the body a rotary inertia about the axis"
-                    .into(),
-            });
-        }
+        self.backend.require(Capability::SpinRows)?;
         let modes = self.idle_modes();
         let saved = self.core.joints.clone();
         for m in &modes {

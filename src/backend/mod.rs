@@ -53,6 +53,9 @@ pub(crate) enum Capability {
     Drive,
     /// The static position analysis (`ANTYPE,STATIC`).
     Static,
+    /// Rows the backend adds beside the joints' own: the spin rows that remove idle modes
+    /// ([`crate::idle`]).
+    SpinRows,
 }
 
 impl Capability {
@@ -68,6 +71,12 @@ impl Capability {
             Capability::Drive => (
                 "a prescribed relative motion (DJ)",
                 "drives are rows of the Lagrange backend",
+            ),
+            Capability::SpinRows => (
+                "removing idle modes (a spin row held at zero rate)",
+                "the spin row is a Lagrange-backend row; use the Lagrange backend, or give the \
+                 body a rotary inertia about the axis (the modes are still reported by \
+                 Mpc184World::idle_modes)",
             ),
             Capability::Static => (
                 "a static (position) analysis",
