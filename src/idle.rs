@@ -8,7 +8,7 @@
 //! arm then spin it up, and at coarse steps that fast idle spin is what breaks the spatial
 //! slider-crank (`docs/charts/summary.md`).
 //!
-//! [`find`] looks for them at the current pose: for each dynamic body with two or more joints,
+//! [`crate::Mpc184World::idle_modes`] looks for them at the current pose: for each dynamic body with two or more joints,
 //! the angular velocities `w` it can take with its centre of mass held and every other body at
 //! rest that satisfy all of its joints' rows (`J_w w = 0` on that body's angular columns: the
 //! null space of the 3x3 matrix `sum_rows j_w j_w^T`, by Jacobi's eigenvalue method). Each
