@@ -24,7 +24,7 @@ use super::{
 /// here) at the same substep, about 1/10 at the same cost (the triple jump has 3 stages).
 const SUZUKI: [Real; 5] = {
     // 4^(1/3) to round-off (a `const` cannot call `cbrt`).
-    let c: Real = 1.587_401_051_968_199_5;
+    let c = 1.587_401_051_968_199_5_f64 as Real;
     let p = 1.0 / (4.0 - c);
     [p, p, 1.0 - 4.0 * p, p, p]
 };
