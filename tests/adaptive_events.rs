@@ -21,7 +21,8 @@
 //!   t = 11/60 s, which holds the lock at 0.187 s.
 #![cfg(feature = "f64")]
 
-use rapier3d_mpc184::math::rapier::prelude::{MassProperties, RigidBodyBuilder};
+mod common;
+
 use rapier3d_mpc184::prelude::*;
 
 const M: Real = 0.5;
@@ -33,42 +34,19 @@ fn lock_angle() -> Real {
 /// Runs the wheel for 1 s (60 steps); returns the relative error of the dissipated energy, the
 /// substeps integrated and the world.
 fn wheel(substeps: usize, control: StepControl) -> (Real, u64, Mpc184World, JointId) {
-    let mut world = Mpc184World::new(WorldSettings {
-        substeps,
-        control,
-        ..WorldSettings::default()
-    });
-    let wheel = world.physics.bodies.insert(
-        RigidBodyBuilder::dynamic()
-            .additional_mass_properties(MassProperties::new(
-                Vector::ZERO,
-                2.0,
-                Vector::new(0.05, 0.05, 0.1),
-            ))
-            .can_sleep(false),
+    let (mut world, id) = common::lock_wheel(
+        WorldSettings {
+            substeps,
+            control,
+            ..WorldSettings::default()
+        },
+        M,
     );
-    let lock = lock_angle();
-    let hinge = Mpc184Joint::revolute(Axis::Z, Vector::ZERO).with_lock(Dof::RotZ, -lock, lock);
-    let id = world.insert_joint(None, Some(wheel), hinge).unwrap();
-    world
-        .set_load(
-            id,
-            Dof::RotZ,
-            DriveProfile {
-                t0: 0.0,
-                t1: 0.0,
-                from: M,
-                to: M,
-                stepped: true,
-                extend: false,
-            },
-        )
-        .unwrap();
     for _ in 0..60 {
         world.step().unwrap();
     }
     assert_eq!(world.output(id).unwrap().locks, 1, "locked");
-    let expected = M * lock;
+    let expected = M * lock_angle();
     let err = (world.energy().dissipated - expected).abs() / expected;
     let cost = match control {
         StepControl::Fixed => 60 * substeps as u64,
@@ -122,7 +100,7 @@ fn the_lock_step_is_refined_to_the_energy_tolerance() {
 /// fixed step at 1/60 x 4: 3.7e-7), for 10 446 substeps in 600 steps (the fixed x4: 2400).
 #[test]
 fn stop_impacts_cut_the_step() {
-    let mut world = Mpc184World::new(WorldSettings {
+    let (mut world, id) = common::stop_pendulum(WorldSettings {
         substeps: 2,
         integrator: Integrator::Rattle,
         control: StepControl::Adaptive {
@@ -132,18 +110,6 @@ fn stop_impacts_cut_the_step() {
         },
         ..WorldSettings::default()
     });
-    world.physics.gravity = Vector::new(0.0, -9.81, 0.0);
-    let bob = world.physics.bodies.insert(
-        RigidBodyBuilder::dynamic()
-            .translation(Vector::new(0.0, -1.0, 0.0))
-            .linvel(Vector::new(2.0, 0.0, 0.0))
-            .angvel(Vector::new(0.0, 0.0, 2.0))
-            .additional_mass_properties(MassProperties::new(Vector::ZERO, 1.0, Vector::splat(1e-4)))
-            .can_sleep(false),
-    );
-    let lim = 20f64.to_radians() as Real;
-    let hinge = Mpc184Joint::revolute(Axis::Z, Vector::ZERO).with_stop(Dof::RotZ, -lim, lim);
-    let id = world.insert_joint(None, Some(bob), hinge).unwrap();
     let scale = 9.81;
     let (mut impacts, mut jump, mut was, mut prev) = (0, 0.0 as Real, false, world.energy().total);
     let mut cuts = std::collections::BTreeSet::new();

@@ -18,56 +18,21 @@
 //! diagnostics must report no body falling back to RATTLE (the islands are plain).
 #![cfg(feature = "f64")]
 
+mod common;
+
 use rapier3d_mpc184::prelude::*;
-use rapier3d_mpc184::studies::metrics::pendulum_period;
 use rapier3d_mpc184::studies::scenes::{self, G};
 
-/// The exact angle of the pendulum at `t` (RK4 of `I_p theta'' = -m g L sin(theta)` with 20000
-/// steps per period).
-fn reference(ip: Real, mgl: Real, theta0: Real, t: Real) -> Real {
-    let n = 20_000;
-    let h = t / n as Real;
-    let f = |th: Real| -mgl / ip * th.sin();
-    let (mut th, mut om) = (theta0, 0.0);
-    for _ in 0..n {
-        let (k1t, k1o) = (om, f(th));
-        let (k2t, k2o) = (om + 0.5 * h * k1o, f(th + 0.5 * h * k1t));
-        let (k3t, k3o) = (om + 0.5 * h * k2o, f(th + 0.5 * h * k2t));
-        let (k4t, k4o) = (om + h * k3o, f(th + h * k3t));
-        th += h / 6.0 * (k1t + 2.0 * k2t + 2.0 * k3t + k4t);
-        om += h / 6.0 * (k1o + 2.0 * k2o + 2.0 * k3o + k4o);
-    }
-    th
-}
-
-/// Largest angle error times L (m) over the checkpoints `k T / 8` at `n` steps per period.
+/// Largest angle error times L (m) over the checkpoints `k T / 8` at `n` steps per period
+/// (`common::one_period_errors`); the composed run must report no body falling back to RATTLE.
 fn pendulum_error(integrator: Integrator, n: usize) -> Real {
-    let theta0 = core::f64::consts::FRAC_PI_2 as Real;
-    let probe =
-        scenes::pendulum(WorldSettings::default(), Axis::Z, 1.0, theta0, 1.0, 1e-4).unwrap();
-    let ip = probe.pivot_inertia();
-    let mgl = probe.mass * G * probe.length;
-    let period = pendulum_period(ip, probe.mass, G, probe.length, theta0);
-    let settings = WorldSettings {
-        dt: period / n as Real,
-        substeps: 1,
-        integrator,
-        ..WorldSettings::default()
-    };
-    let mut p = scenes::pendulum(settings, Axis::Z, 1.0, theta0, 1.0, 1e-4).unwrap();
-    let mut e: Real = 0.0;
-    for k in 1..=8 {
-        for _ in 0..n / 8 {
-            p.world.step().unwrap();
+    let composed = integrator == Integrator::Composition4;
+    common::one_period_errors(integrator, n, |world| {
+        if composed {
+            assert_eq!(world.lagrange_diagnostics().second_order_bodies, 0);
         }
-        if integrator == Integrator::Composition4 {
-            assert_eq!(p.world.lagrange_diagnostics().second_order_bodies, 0);
-        }
-        let th = reference(ip, mgl, theta0, k as Real * period / 8.0);
-        let out = p.world.output(p.joint).unwrap();
-        e = e.max((theta0 + out.dof(Dof::RotZ) - th).abs() * p.length);
-    }
-    e
+    })
+    .0
 }
 
 /// The conical pendulum's bob error (m) after 2 s at `dt` (one substep).

@@ -14,39 +14,15 @@
 //! one substep at the lock, `h omega_L / theta_L` = 4.5 % (measured 1.5 % and 1.1 %).
 #![cfg(feature = "f64")]
 
-use rapier3d_mpc184::math::rapier::prelude::{MassProperties, RigidBodyBuilder};
+mod common;
+
 use rapier3d_mpc184::prelude::*;
 
 #[test]
 fn moment_drives_the_revolute_into_its_lock_and_it_stays() {
-    let mut world = Mpc184World::new(WorldSettings::default());
-    let wheel = world.physics.bodies.insert(
-        RigidBodyBuilder::dynamic()
-            .additional_mass_properties(MassProperties::new(
-                Vector::ZERO,
-                2.0,
-                Vector::new(0.05, 0.05, 0.1),
-            ))
-            .can_sleep(false),
-    );
     let lock = (5.0f64).to_radians() as Real;
-    let hinge = Mpc184Joint::revolute(Axis::Z, Vector::ZERO).with_lock(Dof::RotZ, -lock, lock);
-    let id = world.insert_joint(None, Some(wheel), hinge).unwrap();
     let m = 0.5;
-    world
-        .set_load(
-            id,
-            Dof::RotZ,
-            DriveProfile {
-                t0: 0.0,
-                t1: 0.0,
-                from: m,
-                to: m,
-                stepped: true,
-                extend: false,
-            },
-        )
-        .unwrap();
+    let (mut world, id) = common::lock_wheel(WorldSettings::default(), m);
     let mut locked_at = None;
     let mut max_dev: Real = 0.0;
     for s in 0..120 {

@@ -13,55 +13,14 @@
 //! 8.3e-3 m at N = 640: 55 times RATTLE's), which is what the second-order option removes.
 #![cfg(feature = "f64")]
 
-use rapier3d_mpc184::prelude::*;
-use rapier3d_mpc184::studies::metrics::pendulum_period;
-use rapier3d_mpc184::studies::scenes::{self, G};
+mod common;
 
-/// The exact angle and rate of the pendulum at `t` (RK4 of `I_p theta'' = -m g L sin(theta)`
-/// with 20000 steps per period: its error, ~(T / 20000)^4, is below 1e-14).
-fn reference(ip: Real, mgl: Real, theta0: Real, t: Real) -> (Real, Real) {
-    let n = 20_000;
-    let h = t / n as Real;
-    let f = |th: Real| -mgl / ip * th.sin();
-    let (mut th, mut om) = (theta0, 0.0);
-    for _ in 0..n {
-        let (k1t, k1o) = (om, f(th));
-        let (k2t, k2o) = (om + 0.5 * h * k1o, f(th + 0.5 * h * k1t));
-        let (k3t, k3o) = (om + 0.5 * h * k2o, f(th + 0.5 * h * k2t));
-        let (k4t, k4o) = (om + h * k3o, f(th + h * k3t));
-        th += h / 6.0 * (k1t + 2.0 * k2t + 2.0 * k3t + k4t);
-        om += h / 6.0 * (k1o + 2.0 * k2o + 2.0 * k3o + k4o);
-    }
-    (th, om)
-}
+use rapier3d_mpc184::prelude::*;
 
 /// Largest (angle error m, rate error m/s) over the checkpoints `k T / 8`, k = 1..8, at `n`
-/// steps per period.
+/// steps per period (`common::one_period_errors`).
 fn error_over_one_period(integrator: Integrator, n: usize) -> (Real, Real) {
-    let theta0 = core::f64::consts::FRAC_PI_2 as Real;
-    let probe =
-        scenes::pendulum(WorldSettings::default(), Axis::Z, 1.0, theta0, 1.0, 1e-4).unwrap();
-    let ip = probe.pivot_inertia();
-    let mgl = probe.mass * G * probe.length;
-    let period = pendulum_period(ip, probe.mass, G, probe.length, theta0);
-    let settings = WorldSettings {
-        dt: period / n as Real,
-        substeps: 1,
-        integrator,
-        ..WorldSettings::default()
-    };
-    let mut p = scenes::pendulum(settings, Axis::Z, 1.0, theta0, 1.0, 1e-4).unwrap();
-    let (mut ep, mut ev): (Real, Real) = (0.0, 0.0);
-    for k in 1..=8 {
-        for _ in 0..n / 8 {
-            p.world.step().unwrap();
-        }
-        let (th, om) = reference(ip, mgl, theta0, k as Real * period / 8.0);
-        let out = p.world.output(p.joint).unwrap();
-        ep = ep.max((theta0 + out.dof(Dof::RotZ) - th).abs() * p.length);
-        ev = ev.max((out.angular_velocity.z - om).abs() * p.length);
-    }
-    (ep, ev)
+    common::one_period_errors(integrator, n, |_| {})
 }
 
 fn orders(integrator: Integrator) -> ([Real; 3], [Real; 3], [Real; 2], [Real; 2]) {

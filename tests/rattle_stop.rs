@@ -14,28 +14,18 @@
 //! (d) the stops are never passed by more than 1e-6 rad.
 #![cfg(feature = "f64")]
 
-use rapier3d_mpc184::math::rapier::prelude::{MassProperties, RigidBodyBuilder};
+mod common;
+
 use rapier3d_mpc184::prelude::*;
 
 #[test]
 fn rattle_stop_impacts_keep_the_energy() {
-    let mut world = Mpc184World::new(WorldSettings {
+    let (mut world, id) = common::stop_pendulum(WorldSettings {
         substeps: 4,
         integrator: Integrator::Rattle,
         ..WorldSettings::default()
     });
-    world.physics.gravity = Vector::new(0.0, -9.81, 0.0);
-    let bob = world.physics.bodies.insert(
-        RigidBodyBuilder::dynamic()
-            .translation(Vector::new(0.0, -1.0, 0.0))
-            .linvel(Vector::new(2.0, 0.0, 0.0))
-            .angvel(Vector::new(0.0, 0.0, 2.0))
-            .additional_mass_properties(MassProperties::new(Vector::ZERO, 1.0, Vector::splat(1e-4)))
-            .can_sleep(false),
-    );
     let lim = 20f64.to_radians() as Real;
-    let hinge = Mpc184Joint::revolute(Axis::Z, Vector::ZERO).with_stop(Dof::RotZ, -lim, lim);
-    let id = world.insert_joint(None, Some(bob), hinge).unwrap();
     let scale = 9.81;
     let e0 = world.energy().total;
     let (mut impacts, mut jump, mut err, mut over): (usize, Real, Real, Real) = (0, 0.0, 0.0, 0.0);

@@ -16,3 +16,121 @@ pub fn example(name: &str) -> std::path::PathBuf {
         .join("examples")
         .join(format!("{name}{}", std::env::consts::EXE_SUFFIX))
 }
+
+use rapier3d_mpc184::math::rapier::prelude::{MassProperties, RigidBodyBuilder};
+use rapier3d_mpc184::prelude::*;
+use rapier3d_mpc184::studies::scenes;
+
+/// The exact angle and rate of a pendulum `I_p theta'' = -m g L sin(theta)` released from rest
+/// at `theta0`, at time `t` (RK4 with 20000 steps over `t`: for a period its error,
+/// ~(T / 20000)^4, is below 1e-14).
+#[allow(dead_code, reason = "only the convergence tests use it")]
+pub fn pendulum_rk4(ip: Real, mgl: Real, theta0: Real, t: Real) -> (Real, Real) {
+    let n = 20_000;
+    let h = t / n as Real;
+    let f = |th: Real| -mgl / ip * th.sin();
+    let (mut th, mut om) = (theta0, 0.0);
+    for _ in 0..n {
+        let (k1t, k1o) = (om, f(th));
+        let (k2t, k2o) = (om + 0.5 * h * k1o, f(th + 0.5 * h * k1t));
+        let (k3t, k3o) = (om + 0.5 * h * k2o, f(th + 0.5 * h * k2t));
+        let (k4t, k4o) = (om + h * k3o, f(th + h * k3t));
+        th += h / 6.0 * (k1t + 2.0 * k2t + 2.0 * k3t + k4t);
+        om += h / 6.0 * (k1o + 2.0 * k2o + 2.0 * k3o + k4o);
+    }
+    (th, om)
+}
+
+/// A01-type revolute pendulum (1 kg bob, 1 m, isotropic inertia 1e-4 kg m^2) released from
+/// rest at 90 deg, run over one period `T` at `h = T / n` (one substep, `n` a multiple of 8)
+/// with `integrator`: the largest (angle error times L in m, rate error times L in m/s) over
+/// the checkpoints `k T / 8` against [`pendulum_rk4`]. `check` sees the world at each
+/// checkpoint.
+#[allow(dead_code, reason = "only the convergence tests use it")]
+pub fn one_period_errors(
+    integrator: Integrator,
+    n: usize,
+    mut check: impl FnMut(&Mpc184World),
+) -> (Real, Real) {
+    let theta0 = core::f64::consts::FRAC_PI_2 as Real;
+    let probe =
+        scenes::pendulum(WorldSettings::default(), Axis::Z, 1.0, theta0, 1.0, 1e-4).unwrap();
+    let ip = probe.pivot_inertia();
+    let mgl = probe.mass * scenes::G * probe.length;
+    let period = pendulum_period(ip, probe.mass, scenes::G, probe.length, theta0);
+    let settings = WorldSettings {
+        dt: period / n as Real,
+        substeps: 1,
+        integrator,
+        ..WorldSettings::default()
+    };
+    let mut p = scenes::pendulum(settings, Axis::Z, 1.0, theta0, 1.0, 1e-4).unwrap();
+    let (mut ep, mut ev): (Real, Real) = (0.0, 0.0);
+    for k in 1..=8 {
+        for _ in 0..n / 8 {
+            p.world.step().unwrap();
+        }
+        check(&p.world);
+        let (th, om) = pendulum_rk4(ip, mgl, theta0, k as Real * period / 8.0);
+        let out = p.world.output(p.joint).unwrap();
+        ep = ep.max((theta0 + out.dof(Dof::RotZ) - th).abs() * p.length);
+        ev = ev.max((out.angular_velocity.z - om).abs() * p.length);
+    }
+    (ep, ev)
+}
+
+/// The stop pendulum: a 1 kg bob (inertia 1e-4 kg m^2) 1 m below a grounded revolute z,
+/// started at 2 m/s (rotating with the rod, so the start is consistent) between SECSTOP limits
+/// at -20 and +20 deg on ROTZ; gravity 9.81 m/s^2 along -Y.
+#[allow(dead_code, reason = "only the stop tests use it")]
+pub fn stop_pendulum(settings: WorldSettings) -> (Mpc184World, JointId) {
+    let mut world = Mpc184World::new(settings);
+    world.physics.gravity = Vector::new(0.0, -9.81, 0.0);
+    let bob = world.physics.bodies.insert(
+        RigidBodyBuilder::dynamic()
+            .translation(Vector::new(0.0, -1.0, 0.0))
+            .linvel(Vector::new(2.0, 0.0, 0.0))
+            .angvel(Vector::new(0.0, 0.0, 2.0))
+            .additional_mass_properties(MassProperties::new(Vector::ZERO, 1.0, Vector::splat(1e-4)))
+            .can_sleep(false),
+    );
+    let lim = 20f64.to_radians() as Real;
+    let hinge = Mpc184Joint::revolute(Axis::Z, Vector::ZERO).with_stop(Dof::RotZ, -lim, lim);
+    let id = world.insert_joint(None, Some(bob), hinge).unwrap();
+    (world, id)
+}
+
+/// The SECLOCK wheel (VM179-like): `I_zz` = 0.1 kg m^2, centre on the axis, on a grounded
+/// revolute z with `SECLOCK,6,-5 deg,5 deg`, driven from rest by a stepped joint moment
+/// `moment` (N m, `FJ,MZ`).
+#[allow(dead_code, reason = "only the lock tests use it")]
+pub fn lock_wheel(settings: WorldSettings, moment: Real) -> (Mpc184World, JointId) {
+    let mut world = Mpc184World::new(settings);
+    let wheel = world.physics.bodies.insert(
+        RigidBodyBuilder::dynamic()
+            .additional_mass_properties(MassProperties::new(
+                Vector::ZERO,
+                2.0,
+                Vector::new(0.05, 0.05, 0.1),
+            ))
+            .can_sleep(false),
+    );
+    let lock = (5.0f64).to_radians() as Real;
+    let hinge = Mpc184Joint::revolute(Axis::Z, Vector::ZERO).with_lock(Dof::RotZ, -lock, lock);
+    let id = world.insert_joint(None, Some(wheel), hinge).unwrap();
+    world
+        .set_load(
+            id,
+            Dof::RotZ,
+            DriveProfile {
+                t0: 0.0,
+                t1: 0.0,
+                from: moment,
+                to: moment,
+                stepped: true,
+                extend: false,
+            },
+        )
+        .unwrap();
+    (world, id)
+}
