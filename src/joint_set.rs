@@ -471,12 +471,24 @@ impl JointEntry {
         };
         let rows = &mut self.state.rows;
         rows.retain(|r| !matches!(r, RowKind::Drive { dof: d, .. } if *d == dof));
-        rows.try_push(row).map_err(|_| Error::Unsupported {
-            what: format!("{id}: more than {MAX_JOINT_ROWS} constraint rows"),
-            hint: "a joint's rows are its kind's, the screw coupling and one drive or lock row \
-                   per free DOF"
-                .into(),
-        })
+        self.push_row(
+            id,
+            row,
+            "a joint's rows are its kind's, the screw coupling and one drive or lock row per \
+             free DOF",
+        )
+    }
+
+    /// Appends `row`, or [`Error::Unsupported`] with `hint` when the joint has
+    /// [`MAX_JOINT_ROWS`] already.
+    fn push_row(&mut self, id: JointId, row: RowKind, hint: &str) -> Result<(), Error> {
+        self.state
+            .rows
+            .try_push(row)
+            .map_err(|_| Error::Unsupported {
+                what: format!("{id}: more than {MAX_JOINT_ROWS} constraint rows"),
+                hint: hint.into(),
+            })
     }
 
     /// Adds a velocity-level row holding the spin of side `side`'s body about `axis` (world
@@ -494,13 +506,11 @@ impl JointEntry {
             side,
             axis: frame.transpose() * axis,
         };
-        self.state
-            .rows
-            .try_push(row)
-            .map_err(|_| Error::Unsupported {
-                what: format!("{id}: more than {MAX_JOINT_ROWS} constraint rows"),
-                hint: "the idle-spin row did not fit beside the joint's other rows".into(),
-            })
+        self.push_row(
+            id,
+            row,
+            "the idle-spin row did not fit beside the joint's other rows",
+        )
     }
 
     /// The lowering frames (rows are measured between them) at the bodies' poses now.
