@@ -86,7 +86,8 @@ pub(crate) fn summary(
     for scene in SCENES {
         let rs: Vec<&Run> = runs.iter().filter(|r| r.scene == scene).collect();
         let _ = writeln!(s, "## {}\n", scene.title(cfg));
-        if let Some((_, how, floor)) = refs.iter().find(|(sc, _, _)| *sc == scene) {
+        let reference = refs.iter().find(|(sc, _, _)| *sc == scene);
+        if let Some((_, how, floor)) = reference {
             let _ = writeln!(s, "Reference: {how}; floor {floor:.1e} m.\n");
         }
         let front = pareto(rs.iter().copied(), |r| r.traj);
@@ -101,11 +102,7 @@ pub(crate) fn summary(
         for method in methods_in(&rs) {
             method_row(&mut s, &rs, method);
         }
-        let floor = refs
-            .iter()
-            .find(|(sc, _, _)| *sc == scene)
-            .map_or(0.0, |r| r.2);
-        adaptive_table(&mut s, &rs, floor);
+        adaptive_table(&mut s, &rs, reference.map_or(0.0, |r| r.2));
         let _ = writeln!(s);
     }
     let _ = writeln!(
