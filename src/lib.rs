@@ -120,5 +120,7 @@ pub mod prelude {
     #[cfg(feature = "serde-snapshot")]
     pub use crate::snapshot::Snapshot;
     pub use crate::spring::{SpringDamper, SpringId, SpringOutput};
-    pub use crate::world::{DriveLevel, DriveProfile, Mpc184World, StepStats};
+    pub use crate::world::{
+        DriveLevel, DriveProfile, EventKind, Mpc184World, StepEvent, StepStats,
+    };
 }

@@ -44,7 +44,13 @@ pub enum StepControl {
     /// the checked step's substeps, was tried: it saved a third of the cost but let the error
     /// run to 108 times the request on A01 and far more on the four-bar, whose demand changes
     /// within 8 steps; every step is checked.)
-    /// [`crate::Mpc184World::step_stats`] counts the steps, retries and substeps.
+    ///
+    /// Events are located: a stop's impact, a lock engaging or a stick/slip change that a run
+    /// shows is bisected to the event time tolerance (`tolerance / (2 v)` for the fastest
+    /// speed `v`, and `energy_tolerance / (2 P)` for the rate `P` of the kinetic energy) and
+    /// taken in a substep of its own, the stretches before and after it by step doubling
+    /// (see [`crate::world::EventKind`] for the table, and `StepStats::last_event`).
+    /// [`crate::Mpc184World::step_stats`] counts the steps, retries, events and substeps.
     Adaptive {
         /// Largest estimated position error per step (m).
         tolerance: Real,

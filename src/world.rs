@@ -19,11 +19,14 @@ use crate::joint::Mpc184Joint;
 use crate::joint_set::{JointEntry, JointSet};
 use crate::math::rapier::dynamics::RigidBodyHandle;
 use crate::math::rapier::pipeline::PhysicsWorld;
-use crate::math::{Real, Rotation, Vector};
+use crate::math::{Real, Vector};
 pub use crate::output::{EnergyReport, JointOutput};
 pub use crate::settings::{Integrator, StepControl, WorldSettings};
 use crate::spring::{SpringDamper, SpringEntry, SpringId, SpringOutput, SpringSet};
 use crate::statics::{StaticReport, StaticState};
+
+mod adaptive;
+pub use adaptive::{EventKind, StepEvent};
 
 /// Everything of a world but Rapier's physics and the backend's solver state: settings,
 /// joints, progress. One value, so that the snapshot serialises it whole (no field can be
@@ -77,6 +80,11 @@ pub struct StepStats {
     /// joints). An event (a stop's impact, a lock engaging, a stick/slip change) shows here:
     /// its velocity jump is part of the estimate.
     pub last_cut: Option<(Real, Option<JointId>)>,
+    /// Events located so far (each taken in a substep of its own, see
+    /// [`StepControl::Adaptive`]).
+    pub events: u64,
+    /// The last event located.
+    pub last_event: Option<StepEvent>,
     /// The `n` the next step starts with (0: the settings' substeps).
     next: usize,
 }
@@ -124,6 +132,9 @@ pub struct Mpc184World {
     backend: JointBackend,
     /// What the current step changes, saved at its start ([`crate::divergence`]).
     checkpoint: Checkpoint,
+    /// The adaptive control's segment start and bisection probe (see `adaptive`).
+    segment: Checkpoint,
+    probe: Checkpoint,
 }
 
 impl Mpc184World {
@@ -151,6 +162,8 @@ impl Mpc184World {
             core,
             backend,
             checkpoint: Checkpoint::default(),
+            segment: Checkpoint::default(),
+            probe: Checkpoint::default(),
         }
     }
 
@@ -710,110 +723,6 @@ impl Mpc184World {
     /// What the adaptive step control did so far (all zero with [`StepControl::Fixed`]).
     pub fn step_stats(&self) -> StepStats {
         self.core.stats
-    }
-
-    /// One step of `dt` by step doubling (see [`StepControl::Adaptive`]).
-    fn step_adaptive(
-        &mut self,
-        dt: Real,
-        [tolerance, energy_tolerance]: [Real; 2],
-        max_substeps: usize,
-    ) -> Result<(), Error> {
-        let order = self.backend.order(self.core.settings.integrator);
-        let max = max_substeps.max(2);
-        let stats = &mut self.core.stats;
-        let mut n = if stats.next == 0 {
-            self.core.settings.substeps
-        } else {
-            stats.next
-        }
-        .clamp(1, max / 2);
-        let size = self.model_size();
-        loop {
-            self.step_unchecked(dt, n)?;
-            let coarse = self.dynamic_states();
-            let coarse_ledger = self.core.progress.ledger;
-            self.restore_checkpoint();
-            self.step_unchecked(dt, 2 * n)?;
-            self.core.stats.substeps += 3 * n as u64;
-            let ledger = self.core.progress.ledger;
-            let energy = (ledger.dissipated - coarse_ledger.dissipated).abs()
-                + (ledger.work - coarse_ledger.work).abs();
-            // Per body: the position difference, plus the velocity difference over the step
-            // (a lock engaging or a stop's impact lands on the same position in both runs but
-            // not with the same velocity; this is how such events refine the step).
-            let (diff, worst) = coarse
-                .iter()
-                .zip(self.dynamic_states())
-                .map(|(a, b)| {
-                    let d = (a.1 - b.1).length()
-                        + size * a.2.angle_between(b.2)
-                        + dt * ((a.3 - b.3).length() + size * (a.4 - b.4).length());
-                    (d, a.0)
-                })
-                .fold((0.0 as Real, None), |acc, (d, h)| {
-                    if d > acc.0 { (d, Some(h)) } else { acc }
-                });
-            let estimate = diff / ((1 << order) - 1) as Real;
-            if !(estimate.is_finite() && energy.is_finite()) {
-                return Err(Error::Diverged {
-                    time: self.time(),
-                    joint: None,
-                    reason: "the step-doubling error estimate is not finite".into(),
-                });
-            }
-            let stats = &mut self.core.stats;
-            let met = estimate <= tolerance && energy <= energy_tolerance;
-            if met || 2 * n >= max {
-                let h = dt / (2 * n) as Real;
-                stats.accepted += 1;
-                stats.unmet += u64::from(!met);
-                stats.last_estimate = estimate;
-                stats.smallest_substep = if stats.smallest_substep == 0.0 {
-                    h
-                } else {
-                    stats.smallest_substep.min(h)
-                };
-                stats.largest_substep = stats.largest_substep.max(h);
-                // The n run alone would have passed (its error is about 2^p times the
-                // estimate): the next step starts at half.
-                stats.next = if estimate * (1 << order) as Real <= tolerance
-                    && 2.0 * energy <= energy_tolerance
-                {
-                    (n / 2).max(1)
-                } else {
-                    n
-                };
-                return Ok(());
-            }
-            stats.rejected += 1;
-            let joint = worst.and_then(|h| self.core.joints.attached_to(h).first().copied());
-            self.restore_checkpoint();
-            self.core.stats.last_cut = Some((self.time(), joint));
-            // Twice the substeps, at most `max` in the kept run.
-            n = (2 * n).min(max / 2);
-        }
-    }
-
-    /// The dynamic bodies' handles, centres of mass, orientations and velocities, in the body
-    /// set's order.
-    fn dynamic_states(&self) -> Vec<(RigidBodyHandle, Vector, Rotation, Vector, Vector)> {
-        self.physics
-            .bodies
-            .iter()
-            .filter(|(_, rb)| rb.is_dynamic())
-            .map(|(h, rb)| {
-                let (v, w) = self.velocity_of(h);
-                (h, rb.center_of_mass(), rb.position().rotation, v, w)
-            })
-            .collect()
-    }
-
-    /// Puts the state of the step's start back (the checkpoint stays for another try).
-    fn restore_checkpoint(&mut self) {
-        self.core.progress =
-            self.checkpoint
-                .restore(&mut self.physics, &mut self.core.joints, &mut self.backend);
     }
 
     /// One static step (ANSYS `ANTYPE,STATIC`, see [`crate::statics`]): the time advances by

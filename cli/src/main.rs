@@ -643,10 +643,26 @@ fn print_summary(
             }
             None => String::new(),
         };
+        let event = match stats.last_event {
+            Some(e) => {
+                let element = model.joints.iter().find(|j| j.id == e.joint).map_or_else(
+                    || e.joint.to_string(),
+                    |j| format!("joint element {}", j.element),
+                );
+                format!(
+                    "; {} event(s) located, the last a {:?} at {element} in ({:.9}, {:.9}] s",
+                    stats.events,
+                    e.kind,
+                    e.time - e.width,
+                    e.time
+                )
+            }
+            None => String::new(),
+        };
         format!(
             "automatic time stepping: {} steps, {} retried with more substeps, substeps from \
              {:.4e} to {:.4e} s, {} step(s) at the dtmin limit over the tolerance, {} substeps \
-             integrated in all{cut}",
+             integrated in all{cut}{event}",
             stats.accepted,
             stats.rejected,
             stats.smallest_substep,

@@ -1,0 +1,487 @@
+//! The adaptive step control ([`StepControl::Adaptive`](crate::settings::StepControl::Adaptive), ANSYS `AUTOTS`): step doubling on the
+//! smooth stretches, and each event located by bisection and taken in a substep of its own.
+//!
+//! A step of `dt` is walked in segments. A segment runs from the current time to the step's
+//! end by step doubling (the `n` and `2 n` runs from the segment's start, the segment
+//! checkpoint restoring it bit for bit). When either run shows an *event*, an onset that was
+//! not there at the segment's start:
+//!
+//! | event | seen as |
+//! |---|---|
+//! | [`EventKind::Stop`]: a stop (`SECSTOP`) starts to act | a stop bit of the joint's output set that was clear |
+//! | [`EventKind::Lock`]: a lock (`SECLOCK`) engages | a DOF locked that was free |
+//! | [`EventKind::StickSlip`]: joint friction sticks or starts to slip | the friction state's `slipping` changed |
+//!
+//! the event time is bisected, as ANSYS bisects a step on a contact status change: runs from
+//! the last state without the event (the probe checkpoint) to the middle of the bracket, at the
+//! fine run's substep, until the bracket is narrower than the event time tolerance
+//!
+//! ```text
+//! delta = min(tolerance / (2 v), energy_tolerance / (2 P))
+//! ```
+//!
+//! with `v` the fastest body's speed (its angular speed times the model size included) and `P`
+//! the largest rate of change of the kinetic energy seen between the probes: an impact or a
+//! lock mislocated by `delta` moves the trajectory by about `2 v delta` and the energy by about
+//! `P delta`. The stretch before the bracket is then taken by step doubling (no event in it),
+//! the bracket by one substep (the event acts there: the limits act on the gap predicted at the
+//! substep's end), and the rest of the step is the next segment. A step locates at most
+//! [`MAX_EVENTS`] events (a contact chattering on a stop would otherwise cut it without end);
+//! the step doubling alone takes any after them.
+
+use crate::error::{Error, JointId};
+use crate::math::rapier::dynamics::RigidBodyHandle;
+use crate::math::{Real, Rotation, Vector};
+
+use super::Mpc184World;
+
+/// What the adaptive control locates ([`StepControl::Adaptive`](crate::settings::StepControl::Adaptive)):
+/// an onset in a run that was not there at the start of the stretch it integrates.
+///
+/// | event | seen as | located to |
+/// |---|---|---|
+/// | [`EventKind::Stop`] | a stop bit of the joint's output set that was clear | `tolerance / (2 v)` |
+/// | [`EventKind::Lock`] | a DOF locked that was free | and `energy_tolerance / (2 P)` |
+/// | [`EventKind::StickSlip`] | the friction state's `slipping` changed | whichever is smaller |
+///
+/// `v`: the fastest body's speed (its angular speed times the model size included); `P`: the
+/// largest rate of change of the kinetic energy seen while bisecting. An impact or a lock
+/// mislocated by `delta` moves the trajectory by about `2 v delta` and the energy by about
+/// `P delta`. The event is taken in a substep of its own (the limits act on the gap predicted at
+/// a substep's end, so the event lies in that substep), the stretches before and after it by
+/// step doubling.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(
+    feature = "serde-snapshot",
+    derive(serde::Serialize, serde::Deserialize)
+)]
+pub enum EventKind {
+    /// A stop (`SECSTOP`) started to act.
+    #[doc(alias = "SECSTOP")]
+    Stop,
+    /// A lock (`SECLOCK`) engaged.
+    #[doc(alias = "SECLOCK")]
+    Lock,
+    /// Joint friction went from sticking to slipping or back.
+    StickSlip,
+}
+
+/// An event located by the adaptive control (see the module docs).
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(
+    feature = "serde-snapshot",
+    derive(serde::Serialize, serde::Deserialize)
+)]
+pub struct StepEvent {
+    /// The end of the substep that holds the event (s): the event lies in `(time - width,
+    /// time]`.
+    pub time: Real,
+    /// The size of that substep (s), at most the event time tolerance.
+    pub width: Real,
+    /// The joint.
+    pub joint: JointId,
+    /// What happened.
+    pub kind: EventKind,
+}
+
+/// Most events located in one step (see the module docs).
+pub const MAX_EVENTS: usize = 8;
+
+/// One joint's event state at a segment's start.
+#[derive(Clone, Copy, PartialEq, Eq)]
+struct Mark {
+    /// Bit `k`: the stop or lock of DOF `k` acted in the last substeps.
+    stops: u8,
+    /// Bit `k`: DOF `k` is locked.
+    locks: u8,
+    /// The friction slips (`None`: no friction).
+    slipping: Option<bool>,
+}
+
+/// The tolerances of a step (see [`StepControl::Adaptive`](crate::settings::StepControl::Adaptive)).
+#[derive(Clone, Copy)]
+struct Control {
+    tolerance: Real,
+    energy_tolerance: Real,
+    /// The scheme's order (the estimate divides by `2^p - 1`).
+    order: u32,
+    /// Most substeps per `dt`.
+    max: usize,
+    dt: Real,
+}
+
+/// How a segment's step doubling ended.
+enum Outcome {
+    /// Kept; `n` (substeps per `dt`) for what follows.
+    Kept(usize),
+    /// A run showed an event: the world is back at the segment's start, and `h` is the
+    /// substep the bisection runs at.
+    Event(Real),
+}
+
+/// A dynamic body's handle, centre of mass, orientation and velocities.
+type BodyState = (RigidBodyHandle, Vector, Rotation, Vector, Vector);
+
+/// The substeps that cover `span` at the substep of `n` per `dt` (at least one).
+fn substeps_for(span: Real, dt: Real, n: usize) -> usize {
+    // Round-off in `span` (a sum of parts of `dt`) must not add a substep.
+    ((span / dt * n as Real) * (1.0 - 8.0 * Real::EPSILON))
+        .ceil()
+        .max(1.0) as usize
+}
+
+impl Mpc184World {
+    /// One step of `dt` under the adaptive control (see the module docs).
+    pub(super) fn step_adaptive(
+        &mut self,
+        dt: Real,
+        [tolerance, energy_tolerance]: [Real; 2],
+        max_substeps: usize,
+    ) -> Result<(), Error> {
+        let c = Control {
+            tolerance,
+            energy_tolerance,
+            order: self.backend.order(self.core.settings.integrator),
+            max: max_substeps.max(2),
+            dt,
+        };
+        let stats = &self.core.stats;
+        let mut n = if stats.next == 0 {
+            self.core.settings.substeps
+        } else {
+            stats.next
+        }
+        .clamp(1, c.max / 2);
+        let t0 = self.time();
+        let mut done: Real = 0.0;
+        let mut events = 0;
+        // The stops that acted in the parts kept: the step's output reports them all, as after
+        // a step in one part.
+        let mut acted: Vec<u8> = Vec::new();
+        loop {
+            let span = dt - done;
+            self.save_segment();
+            let marks = self.event_marks();
+            let watch = (events < MAX_EVENTS).then_some(marks.as_slice());
+            match self.doubling(span, n, &c, watch)? {
+                Outcome::Kept(next) => {
+                    n = next;
+                    self.gather_acted(&mut acted);
+                    break;
+                }
+                Outcome::Event(h) => {
+                    let (lo, hi, event) = self.locate(span, h, &marks, &c)?;
+                    if lo > 0.0 {
+                        // No event before the bracket: the doubling keeps its own `n`.
+                        if let Outcome::Kept(next) = self.doubling(lo, n, &c, None)? {
+                            n = next;
+                        }
+                        self.gather_acted(&mut acted);
+                    }
+                    self.step_unchecked(hi - lo, 1)?;
+                    self.gather_acted(&mut acted);
+                    self.core.stats.substeps += 1;
+                    self.note_substep(hi - lo);
+                    events += 1;
+                    // The stretch before the bracket was taken again by the doubling, at its
+                    // own substeps: the event can move by up to the tolerance over the speed
+                    // and fall past the bracket. The next segment locates it then (from its
+                    // start), and this substep is not counted as the event.
+                    if let (Some((joint, kind)), Some(_)) = (event, self.onset(&marks)) {
+                        self.core.stats.events += 1;
+                        self.core.stats.last_event = Some(StepEvent {
+                            time: t0 + done + hi,
+                            width: hi - lo,
+                            joint,
+                            kind,
+                        });
+                    }
+                    done += hi;
+                    if dt - done <= 1e-9 * dt {
+                        break;
+                    }
+                }
+            }
+        }
+        // The parts add up to `dt` up to round-off: the step ends where a fixed step ends.
+        self.core.progress.time = t0 + dt;
+        if events > 0 {
+            for (slot, bits) in acted.into_iter().enumerate() {
+                if let Some(e) = self.core.joints.get_mut(slot) {
+                    for (k, flag) in e.state.at_stop.iter_mut().enumerate() {
+                        *flag |= bits & (1 << k) != 0;
+                    }
+                }
+            }
+            self.refresh_outputs();
+        }
+        let stats = &mut self.core.stats;
+        stats.accepted += 1;
+        stats.next = n;
+        Ok(())
+    }
+
+    /// Step doubling over `span` from the segment's start, `n` substeps per `dt` first (see
+    /// [`StepControl::Adaptive`](crate::settings::StepControl::Adaptive)). With `watch`, a run that shows an event (against those marks)
+    /// stops it: the world goes back to the segment's start.
+    fn doubling(
+        &mut self,
+        span: Real,
+        mut n: usize,
+        c: &Control,
+        watch: Option<&[Mark]>,
+    ) -> Result<Outcome, Error> {
+        let size = self.model_size();
+        loop {
+            let m = substeps_for(span, c.dt, n);
+            self.step_unchecked(span, m)?;
+            self.core.stats.substeps += m as u64;
+            if watch.is_some_and(|marks| self.onset(marks).is_some()) {
+                self.restore_segment();
+                return Ok(Outcome::Event(span / (2 * m) as Real));
+            }
+            let coarse = self.dynamic_states();
+            let coarse_ledger = self.core.progress.ledger;
+            self.restore_segment();
+            self.step_unchecked(span, 2 * m)?;
+            self.core.stats.substeps += 2 * m as u64;
+            if watch.is_some_and(|marks| self.onset(marks).is_some()) {
+                self.restore_segment();
+                return Ok(Outcome::Event(span / (2 * m) as Real));
+            }
+            let ledger = self.core.progress.ledger;
+            let energy = (ledger.dissipated - coarse_ledger.dissipated).abs()
+                + (ledger.work - coarse_ledger.work).abs();
+            // Per body: the position difference, plus the velocity difference over the span
+            // (an event the control does not locate lands both runs on the same position but
+            // not with the same velocity; this is how it refines the step then).
+            let (diff, worst) = coarse
+                .iter()
+                .zip(self.dynamic_states())
+                .map(|(a, b)| {
+                    let d = (a.1 - b.1).length()
+                        + size * a.2.angle_between(b.2)
+                        + span * ((a.3 - b.3).length() + size * (a.4 - b.4).length());
+                    (d, a.0)
+                })
+                .fold((0.0 as Real, None), |acc, (d, h)| {
+                    if d > acc.0 { (d, Some(h)) } else { acc }
+                });
+            let estimate = diff / ((1 << c.order) - 1) as Real;
+            if !(estimate.is_finite() && energy.is_finite()) {
+                return Err(Error::Diverged {
+                    time: self.time(),
+                    joint: None,
+                    reason: "the step-doubling error estimate is not finite".into(),
+                });
+            }
+            let met = estimate <= c.tolerance && energy <= c.energy_tolerance;
+            if met || 2 * n >= c.max {
+                self.note_substep(span / (2 * m) as Real);
+                let stats = &mut self.core.stats;
+                stats.unmet += u64::from(!met);
+                stats.last_estimate = estimate;
+                // The n run alone would have passed (its error is about 2^p times the
+                // estimate): what follows starts at half. Not after a part of the step (before
+                // or after an event): its error is that of a shorter stretch.
+                let whole = span >= c.dt;
+                let next = if whole
+                    && estimate * (1 << c.order) as Real <= c.tolerance
+                    && 2.0 * energy <= c.energy_tolerance
+                {
+                    (n / 2).max(1)
+                } else {
+                    n
+                };
+                return Ok(Outcome::Kept(next));
+            }
+            self.core.stats.rejected += 1;
+            let joint = worst.and_then(|h| self.core.joints.attached_to(h).first().copied());
+            self.restore_segment();
+            self.core.stats.last_cut = Some((self.time(), joint));
+            // Twice the substeps, at most `max` per `dt` in the kept run.
+            n = (2 * n).min(c.max / 2);
+        }
+    }
+
+    /// Bisects the event that a run over `span` from the segment's start showed (see the
+    /// module docs), at substeps of at most `h`. Returns the bracket `(lo, hi]` (from the
+    /// segment's start) and the event's joint and kind; the world is back at the segment's
+    /// start.
+    fn locate(
+        &mut self,
+        span: Real,
+        h: Real,
+        marks: &[Mark],
+        c: &Control,
+    ) -> Result<(Real, Real, Option<(JointId, EventKind)>), Error> {
+        let size = self.model_size();
+        let speed = |w: &Self| {
+            w.dynamic_states()
+                .iter()
+                .map(|s| s.3.length() + size * s.4.length())
+                .fold(0.0 as Real, Real::max)
+        };
+        let mut v = speed(self);
+        let mut kinetic = self.energy().kinetic;
+        let mut power: Real = 0.0;
+        let (mut lo, mut hi) = (0.0 as Real, span);
+        let mut event = None;
+        // A floor far below any tolerance a user asks for (the substep stays representable
+        // beside the time).
+        let floor = span * Real::EPSILON.sqrt();
+        // The world is at `lo` (the probe, or the segment's start while `lo` is 0).
+        let mut at_lo = true;
+        loop {
+            let delta = (c.tolerance / (2.0 * v))
+                .min(c.energy_tolerance / (2.0 * power))
+                .max(floor);
+            if hi - lo <= delta {
+                break;
+            }
+            if !at_lo {
+                if lo > 0.0 {
+                    self.core.progress = self.probe.restore(
+                        &mut self.physics,
+                        &mut self.core.joints,
+                        &mut self.backend,
+                    );
+                } else {
+                    self.restore_segment();
+                }
+            }
+            let mid = 0.5 * (lo + hi);
+            let m = substeps_for(mid - lo, h, 1);
+            self.step_unchecked(mid - lo, m)?;
+            self.core.stats.substeps += m as u64;
+            if let Some(found) = self.onset(marks) {
+                event = Some(found);
+                hi = mid;
+                at_lo = false;
+            } else {
+                let k = self.energy().kinetic;
+                power = power.max((k - kinetic).abs() / (mid - lo));
+                kinetic = k;
+                v = v.max(speed(self));
+                lo = mid;
+                at_lo = true;
+                self.probe.save(
+                    &self.physics,
+                    &self.core.joints,
+                    self.core.progress,
+                    &self.backend,
+                );
+            }
+        }
+        if event.is_none() {
+            // The first run's event, not seen again by the bisection's runs (a grazing contact
+            // that a finer substep misses): name it from that run.
+            self.restore_segment();
+            self.step_unchecked(span, substeps_for(span, h, 1))?;
+            event = self.onset(marks);
+        }
+        self.restore_segment();
+        Ok((lo, hi, event))
+    }
+
+    /// Adds the stops that acted in the part just kept to `acted` (one bit per DOF, by slot).
+    fn gather_acted(&self, acted: &mut Vec<u8>) {
+        let marks = self.event_marks();
+        acted.resize(marks.len(), 0);
+        for (a, m) in acted.iter_mut().zip(marks) {
+            *a |= m.stops;
+        }
+    }
+
+    /// Records a kept substep in the smallest and largest.
+    fn note_substep(&mut self, h: Real) {
+        let stats = &mut self.core.stats;
+        stats.smallest_substep = if stats.smallest_substep == 0.0 {
+            h
+        } else {
+            stats.smallest_substep.min(h)
+        };
+        stats.largest_substep = stats.largest_substep.max(h);
+    }
+
+    /// Saves the segment's start.
+    fn save_segment(&mut self) {
+        self.segment.save(
+            &self.physics,
+            &self.core.joints,
+            self.core.progress,
+            &self.backend,
+        );
+    }
+
+    /// Puts the segment's start back (the checkpoint stays for another try).
+    fn restore_segment(&mut self) {
+        self.core.progress =
+            self.segment
+                .restore(&mut self.physics, &mut self.core.joints, &mut self.backend);
+    }
+
+    /// Every joint slot's event state now.
+    fn event_marks(&self) -> Vec<Mark> {
+        self.core
+            .joints
+            .slots()
+            .iter()
+            .map(|e| match e {
+                Some(e) => Mark {
+                    stops: bits(&e.state.at_stop),
+                    locks: bits(&e.state.locked.map(|l| l.is_some())),
+                    slipping: e.state.friction.map(|f| f.slipping),
+                },
+                None => Mark {
+                    stops: 0,
+                    locks: 0,
+                    slipping: None,
+                },
+            })
+            .collect()
+    }
+
+    /// The first joint (in slot order) with an event since `marks` were taken, and its kind.
+    fn onset(&self, marks: &[Mark]) -> Option<(JointId, EventKind)> {
+        let now = self.event_marks();
+        marks
+            .iter()
+            .zip(&now)
+            .enumerate()
+            .find_map(|(slot, (a, b))| {
+                let kind = if b.locks & !a.locks != 0 {
+                    EventKind::Lock
+                } else if b.stops & !a.stops != 0 {
+                    EventKind::Stop
+                } else if a.slipping != b.slipping {
+                    EventKind::StickSlip
+                } else {
+                    return None;
+                };
+                Some((JointId(slot as u32), kind))
+            })
+    }
+
+    /// The dynamic bodies' handles, centres of mass, orientations and velocities, in the body
+    /// set's order.
+    fn dynamic_states(&self) -> Vec<BodyState> {
+        self.physics
+            .bodies
+            .iter()
+            .filter(|(_, rb)| rb.is_dynamic())
+            .map(|(h, rb)| {
+                let (v, w) = self.velocity_of(h);
+                (h, rb.center_of_mass(), rb.position().rotation, v, w)
+            })
+            .collect()
+    }
+}
+
+/// One bit per DOF.
+fn bits(flags: &[bool; 6]) -> u8 {
+    flags
+        .iter()
+        .enumerate()
+        .fold(0, |acc, (k, f)| acc | (u8::from(*f) << k))
+}
