@@ -83,9 +83,10 @@ struct RunArgs {
     /// tighter).
     #[arg(long, value_enum, default_value = "first-order")]
     integrator: IntegratorArg,
-    /// Write every N-th step (t = 0 and the last step always).
-    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..))]
-    every: u32,
+    /// Write every N-th step (t = 0 and the last step always). Without it, each load step
+    /// writes as its OUTRES says (every step when the deck has none).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+    every: Option<u32>,
     /// No summary table, no progress.
     #[arg(long)]
     quiet: bool,
@@ -223,7 +224,7 @@ fn default_job() -> Result<(), Failure> {
         backend: BackendArg::Lagrange,
         substeps: 4,
         integrator: IntegratorArg::FirstOrder,
-        every: 1,
+        every: None,
         quiet: false,
         keep_idle_modes: false,
         // The main job's view: open it in a browser.
@@ -498,9 +499,9 @@ impl From<IoFailure> for Stop {
     }
 }
 
-/// Every load step's steps, a row every `--every` steps (and at the last step, at a divergence
-/// and at an interrupt: the world's last good state gets its row even if `--every` thinned it
-/// out).
+/// Every load step's steps, a row every `--every` steps, or where the load step's `OUTRES`
+/// says (every step without either), and at the last step, at a divergence and at an
+/// interrupt: the world's last good state gets its row even if the frequency thinned it out.
 fn step_all(
     model: &mut DeckModel,
     args: &RunArgs,
@@ -511,13 +512,14 @@ fn step_all(
 ) -> Result<(), Stop> {
     let total_steps: usize = model.steps.iter().map(|s| s.steps).sum();
     let progress = progress_bar(args.quiet, total_steps);
-    let every = args.every as usize;
+    let every = args.every.map(|n| n as usize);
     let crank = model.joints.first().map(|j| j.id);
     for k in 0..model.steps.len() {
         model
             .begin_load_step(k)
             .map_err(|e| Stop::Failed(deck_failure(e)))?;
-        for _ in 0..model.steps[k].steps {
+        let (steps, outres) = (model.steps[k].steps, model.steps[k].outres);
+        for i in 0..steps {
             if let Err(e) = model.step() {
                 if st.written != st.done {
                     w.row(model, total0)?;
@@ -525,7 +527,12 @@ fn step_all(
                 return Err(Stop::Failed(diverged(model, k, e, w)));
             }
             st.done += 1;
-            if st.done.is_multiple_of(every) || st.done == total_steps {
+            let wanted = match (every, outres) {
+                (Some(n), _) => st.done.is_multiple_of(n),
+                (None, Some(freq)) => freq.writes(i, steps),
+                (None, None) => true,
+            };
+            if wanted || st.done == total_steps {
                 w.row(model, total0)?;
                 st.written = st.done;
             }

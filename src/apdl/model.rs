@@ -903,6 +903,46 @@ pub struct Substeps {
     pub min: Option<u32>,
 }
 
+/// `OUTRES,Item,Freq`: at which steps of a load step the results are written (a step of the
+/// deck's `DELTIM` or `NSUBST` is ANSYS's substep; `AUTOTS`'s own substeps inside it are not
+/// rows, their count and sizes are in the run summary).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[doc(alias = "OUTRES")]
+pub enum OutputFrequency {
+    /// `ALL` (or a blank `Freq`): every step.
+    All,
+    /// `n`: every `n`-th step and the last of the load step.
+    Every(u32),
+    /// `-n`: up to `n` equally spaced: the load step's time divided into `n` equal intervals,
+    /// the last step in each written.
+    Spaced(u32),
+    /// `LAST`: the last step of the load step.
+    Last,
+    /// `NONE`: no step of the load step (a run that stops in it still writes its last good
+    /// state).
+    None,
+}
+
+impl OutputFrequency {
+    /// Whether step `i` (0-based) of a load step of `steps` steps is written.
+    pub fn writes(self, i: usize, steps: usize) -> bool {
+        let last = i + 1 == steps;
+        match self {
+            OutputFrequency::All => true,
+            OutputFrequency::Every(n) => last || (i + 1).is_multiple_of(n.max(1) as usize),
+            OutputFrequency::Spaced(n) => {
+                // Step `s` (1-based) ends in interval `ceil(s n / steps)`; it is the last one
+                // there when step `s + 1` ends in the next.
+                let n = n.max(1) as usize;
+                let interval = |s: usize| (s * n).div_ceil(steps);
+                last || interval(i + 2) > interval(i + 1)
+            }
+            OutputFrequency::Last => last,
+            OutputFrequency::None => false,
+        }
+    }
+}
+
 /// The state of the loads and solution options at one `SOLVE`.
 ///
 /// Loads persist from one load step to the next until deleted (`DDELE`, `FDELE`, `DJDELE`,
@@ -927,6 +967,11 @@ pub struct LoadStep {
     #[doc(alias = "MIDTOL")]
     #[serde(default)]
     pub midtol: Option<Option<f64>>,
+    /// `OUTRES` in effect (`None`: not given, or reset by `OUTRES,ERASE`; the program writes
+    /// every step then unless told otherwise, see `mpc184 run --every`).
+    #[doc(alias = "OUTRES")]
+    #[serde(default)]
+    pub outres: Option<OutputFrequency>,
     /// `KBC` in effect (default: ramped).
     pub kbc: LoadRamp,
     /// `ANTYPE` in effect (default: static).

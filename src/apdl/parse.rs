@@ -9,7 +9,7 @@ use super::model::{
     AnalysisType, CoordinateSystem, Deck, DofLabel, DofRange, Element, ElementName, ElementType,
     ForceLabel, InitialCondition, JoinTable, JointLoad, JointMotion, JointSection, JointSubtype,
     LoadRamp, LoadStep, NodalConstraint, NodalForce, Node, NodeAxis, Note, RealConstants,
-    RigidRegion, SpotweldCenter, Substeps, TimeIncrement,
+    OutputFrequency, RigidRegion, SpotweldCenter, Substeps, TimeIncrement,
 };
 
 /// Reads a deck from text. `file` is only used in error messages and [`Deck::file`].
@@ -147,6 +147,8 @@ struct Reader {
     autots: bool,
     /// `MIDTOL,ON[,tol]` in effect (`Some(None)`: on with its default).
     midtol: Option<Option<f64>>,
+    /// `OUTRES` in effect.
+    outres: Option<OutputFrequency>,
     kbc: LoadRamp,
     antype: AnalysisType,
     loads_since_solve: Option<usize>,
@@ -182,6 +184,7 @@ impl Reader {
             nsubst: None,
             autots: false,
             midtol: None,
+            outres: None,
             kbc: LoadRamp::Ramped,
             antype: AnalysisType::Static,
             loads_since_solve: None,
@@ -390,8 +393,9 @@ impl Reader {
     fn dispatch(&mut self, cmd: &str) -> Res<()> {
         match cmd {
             "/PREP7" | "/SOLU" | "FINISH" | "/COM" | "/TITLE" | "/CLEAR" | "/EOF" | "/OUTPUT"
-            | "OUTRES" | "/NOPR" | "/GOPR" | "/BATCH" | "ALLSEL" | "NLGEOM" | "TINTP"
-            | "TRNOPT" | "*SET" | "*AFUN" => self.session(cmd),
+            | "/NOPR" | "/GOPR" | "/BATCH" | "ALLSEL" | "NLGEOM" | "TINTP" | "TRNOPT" | "*SET"
+            | "*AFUN" => self.session(cmd),
+            "OUTRES" => self.outres(),
             "ET" => self.et(),
             "KEYOPT" => self.keyopt(),
             "TYPE" | "REAL" | "MAT" | "SECNUM" => self.pointer(cmd),
@@ -442,7 +446,7 @@ impl Reader {
                 self.stopped = true;
                 Ok(())
             }
-            "/OUTPUT" | "OUTRES" | "/NOPR" | "/GOPR" | "/BATCH" => {
+            "/OUTPUT" | "/NOPR" | "/GOPR" | "/BATCH" => {
                 self.note(format!("{cmd}: output control has no effect here; ignored"));
                 Ok(())
             }
@@ -514,6 +518,68 @@ impl Reader {
             }
             _ => Err(self.unknown_command(cmd)),
         }
+    }
+
+    /// `OUTRES,Item,Freq,Cname`: the frequency of the result rows (see [`OutputFrequency`]).
+    /// Every row holds every result here, so any item's frequency is the rows' frequency (the
+    /// last `OUTRES` wins; `ERASE` resets to the default, `STAT` is noted).
+    fn outres(&mut self) -> Res<()> {
+        let item = self.raw(1).map(str::to_ascii_uppercase);
+        match item.as_deref() {
+            Some("ERASE") => {
+                self.outres = None;
+                return Ok(());
+            }
+            Some("STAT") => {
+                self.note("OUTRES,STAT: nothing to list here; ignored");
+                return Ok(());
+            }
+            None | Some("ALL" | "BASIC") => {}
+            Some(
+                "NSOL" | "RSOL" | "V" | "A" | "ESOL" | "NLOAD" | "STRS" | "EPEL" | "EPTH"
+                | "EPPL" | "EPCR" | "EPDI" | "FGRAD" | "FFLUX" | "LOCI" | "VENG" | "MISC"
+                | "FMAG" | "CURD" | "NLDAT" | "EHEAT" | "ETMP" | "SVAR" | "CINT" | "NAR",
+            ) => {
+                let it = item.as_deref().unwrap_or_default();
+                self.note(format!(
+                    "OUTRES,{it}: every row holds every result here; its frequency is taken for \
+                     all of them"
+                ));
+            }
+            Some(other) => {
+                return Err(self.invalid(1, format!("OUTRES: unknown results item {other}")));
+            }
+        }
+        if self.raw(3).is_some() {
+            self.note("OUTRES: components (Cname) do not exist here; the frequency applies to all");
+        }
+        let freq = match self.raw(2).map(str::to_ascii_uppercase).as_deref() {
+            None | Some("ALL") => OutputFrequency::All,
+            Some("LAST") => OutputFrequency::Last,
+            Some("NONE") => OutputFrequency::None,
+            Some(text) if text.starts_with('%') => {
+                return Err(self.unsupported(
+                    "OUTRES with a table of output times",
+                    "give a number n (every n-th step), -n (n equally spaced), ALL, LAST or NONE",
+                ));
+            }
+            Some(_) => {
+                let n = self.required(2, "FREQ")?;
+                if n.fract() != 0.0 || n == 0.0 || n.abs() > u32::MAX as f64 {
+                    return Err(self.invalid(
+                        2,
+                        format!("OUTRES's Freq is a nonzero whole number, ALL, LAST or NONE, got {n}"),
+                    ));
+                }
+                if n > 0.0 {
+                    OutputFrequency::Every(n as u32)
+                } else {
+                    OutputFrequency::Spaced((-n) as u32)
+                }
+            }
+        };
+        self.outres = Some(freq);
+        Ok(())
     }
 
     /// The load step's time stepping (`TIME`, `DELTIM`, `NSUBST`, `KBC`, `AUTOTS`, `MIDTOL`).
@@ -1563,6 +1629,7 @@ impl Reader {
             nsubst: self.nsubst,
             autots: self.autots,
             midtol: self.midtol,
+            outres: self.outres,
             kbc: self.kbc,
             antype: self.antype,
             d: self.loads.d.values().copied().collect(),

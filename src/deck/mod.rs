@@ -18,13 +18,14 @@
 //! # Commands
 //! | group | commands |
 //! |---|---|
-//! | session | `/PREP7 /SOLU FINISH /TITLE /COM /CLEAR /EOF`; noted and ignored: `/OUTPUT OUTRES NLGEOM TINTP TRNOPT,FULL /NOPR /GOPR /BATCH ALLSEL` |
+//! | session | `/PREP7 /SOLU FINISH /TITLE /COM /CLEAR /EOF`; noted and ignored: `/OUTPUT NLGEOM TINTP TRNOPT,FULL /NOPR /GOPR /BATCH ALLSEL` |
 //! | elements | `ET,n,MPC184\|MASS21,k1..k6`, `KEYOPT`, `TYPE REAL MAT SECNUM`, `R RMORE`, `N`, `E`, `EN`, `CERIG` |
 //! | joints | `SECTYPE,id,JOINT,subtype`, `SECJOINT,LSYS\|RDOF\|PITC\|FRIC\|PNLT\|SPWE`, `SECSTOP`, `SECLOCK`, `SECDATA` |
 //! | frames | `LOCAL,n,0,x,y,z,thxy,thyz,thzx` (Cartesian, degrees), `CSYS` |
 //! | materials | `TB,JOIN,mat,1,npts,TBOPT`, `TBTEMP`, `TBDATA`, `TBPT` |
 //! | loads | `D F DJ FJ DDELE FDELE DJDELE FJDELE ACEL IC` |
 //! | analysis | `ANTYPE,STATIC\|TRANS`, `TIME`, `DELTIM`, `NSUBST`, `KBC`, `AUTOTS`, `MIDTOL`, `SOLVE` (one [`LoadStep`] each; `AUTOTS,ON` chooses the substeps by step doubling, see [`StepPlan::autots`]) |
+//! | output | `OUTRES,Item,Freq` (`n`, `-n`, `ALL`, `LAST`, `NONE`; `ERASE`; see [`OutputFrequency`]) |
 //!
 //! Anything else is an error ([`DeckErrorKind::Unsupported`], with a hint). Errors display as
 //! `FILE:LINE: COMMAND: what is wrong`.
@@ -59,7 +60,7 @@ pub use crate::apdl::{
     AnalysisType, CoordinateSystem, Deck, DofLabel, DofRange, Element, ElementName, ElementRole,
     ElementType, ForceLabel, InitialCondition, JoinTable, JointLoad, JointMotion, JointSection,
     JointSubtype, LoadRamp, LoadStep, MotionKind, NodalConstraint, NodalForce, Node, NodeAxis,
-    Note, RealConstants, RigidRegion, SpotweldCenter, Substeps, TimeIncrement,
+    Note, OutputFrequency, RealConstants, RigidRegion, SpotweldCenter, Substeps, TimeIncrement,
 };
 pub use crate::apdl::{AngleUnit, DeckError, DeckErrorKind, ExprError, MAX_DEPTH, evaluate};
 pub use crate::apdl::{parse_file, parse_str};

@@ -443,6 +443,7 @@ pub(super) fn plan_steps(deck: &Deck) -> Result<Vec<StepPlan>, Error> {
             dt,
             steps: n,
             autots,
+            outres: ls.outres,
         });
         start = ls.end_time;
     }

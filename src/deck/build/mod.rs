@@ -166,6 +166,9 @@ pub struct StepPlan {
     /// `max_substeps` (`DELTIM`'s `dtmin`: `dt / dtmin`; `NSUBST`'s `nmax`: `nmax / n`; default
     /// 64; at most 256). `None`: fixed substeps.
     pub autots: Option<(f64, usize)>,
+    /// `OUTRES` in effect: the steps whose results are written (`None`: not given).
+    #[doc(alias = "OUTRES")]
+    pub outres: Option<super::OutputFrequency>,
 }
 
 /// The step-doubling tolerance of `AUTOTS,ON` without `MIDTOL`: 1e-4 of the model size per
