@@ -20,10 +20,23 @@
 //!   tolerance) at the impact speed `omega(20 deg) L`, 7.2e-9 s (measured: 2e-9 s off, the
 //!   bracket 8e-11 s wide; at 1e-6 m per step 1.9e-6 s off). Every impact in 10 s is located:
 //!   as many events as impacts seen in the output (27).
+//! - **Stick to slip** (the friction wheel of `tests/friction_revolute.rs`: 2 kg, `I` = 0.1 kg
+//!   m^2, on a grounded revolute z with `mu` = 0.2 and `R_inner` = 0.03 m, gravity across the
+//!   axis, first order): a joint moment ramped as `M = k t` (`k` = 0.3 N m/s) breaks it away
+//!   when it reaches `mu m g R_i` = 0.11772 N m, at `t_b = mu m g R_i / k` = 0.3924 s; the wheel
+//!   sticks exactly before that (an exact velocity-level impulse). The wheel has no speed
+//!   before it slips, so the bracket is bounded by the stretch's substep (the doubling chose
+//!   1/60/256 s: 6.5e-5 s). The bracket must lie within one width of `t_b`: the first-order
+//!   step keeps its velocities at half steps, so where a bisection run's substep is shorter
+//!   than the one before it the stick check sees `(h' + h) / 2` of the moment's impulse and
+//!   breaks away a little early (measured: the bracket ends 1.7e-5 s, 0.27 widths, before
+//!   `t_b`; a fixed step of the same substep breaks away 1.1e-4 s late, at 1/60/4096 s 7e-6 s
+//!   late).
 #![cfg(feature = "f64")]
 
 mod common;
 
+use rapier3d_mpc184::math::rapier::prelude::{MassProperties, RigidBodyBuilder};
 use rapier3d_mpc184::prelude::*;
 
 #[test]
@@ -132,4 +145,57 @@ fn every_impact_is_located_and_the_first_at_its_time() {
     );
     assert!(impacts >= 20, "{impacts} impacts");
     assert_eq!(stats.events, impacts as u64);
+}
+
+#[test]
+fn a_breakaway_is_located_at_the_friction_limit() {
+    let (m, g, mu, ri, k) = (2.0 as Real, 9.81 as Real, 0.2 as Real, 0.03 as Real, 0.3 as Real);
+    let tolerance = 1e-6;
+    let mut world = Mpc184World::new(WorldSettings {
+        substeps: 1,
+        control: StepControl::Adaptive {
+            tolerance,
+            energy_tolerance: Real::INFINITY,
+            max_substeps: 1 << 12,
+        },
+        ..WorldSettings::default()
+    });
+    world.physics.gravity = Vector::new(0.0, -g, 0.0);
+    let b = world.physics.bodies.insert(
+        RigidBodyBuilder::dynamic()
+            .additional_mass_properties(MassProperties::new(Vector::ZERO, m, Vector::splat(0.1)))
+            .can_sleep(false),
+    );
+    let joint = Mpc184Joint::revolute(Axis::Z, Vector::ZERO)
+        .with_friction(Friction::coulomb(mu, [Some(0.05), Some(ri), None]));
+    let id = world.insert_joint(None, Some(b), joint).unwrap();
+    let ramp = DriveProfile {
+        t0: 0.0,
+        t1: 1.0,
+        from: 0.0,
+        to: k,
+        stepped: false,
+        extend: true,
+    };
+    world.set_load(id, Dof::RotZ, ramp).unwrap();
+    for _ in 0..30 {
+        world.step().unwrap();
+    }
+    let stats = world.step_stats();
+    let event = stats.last_event.expect("the breakaway was located");
+    let t_b = mu * m * g * ri / k;
+    eprintln!(
+        "breakaway at {t_b:.9} s, bracket ({:.9}, {:.9}]; {stats:?}",
+        event.time - event.width,
+        event.time
+    );
+    assert_eq!((event.joint, event.kind), (id, EventKind::StickSlip));
+    assert_eq!(stats.events, 1);
+    // Within one event substep of the bracket (see the header).
+    assert!(
+        event.time - 2.0 * event.width < t_b && t_b <= event.time + event.width,
+        "bracket misses the breakaway time by more than its width"
+    );
+    assert!(event.width <= 1.0 / 60.0 / 64.0, "width {:.3e} s", event.width);
+    assert!(world.output(id).unwrap().friction.unwrap().slipping);
 }

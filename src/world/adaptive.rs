@@ -23,7 +23,8 @@
 //! with `v` the fastest body's speed (its angular speed times the model size included) and `P`
 //! the largest rate of change of the kinetic energy seen between the probes: an impact or a
 //! lock mislocated by `delta` moves the trajectory by about `2 v delta` and the energy by about
-//! `P delta`. The stretch before the bracket is then taken by step doubling (no event in it),
+//! `P delta`; `h`, the fine run's substep, keeps the event's substep no coarser than its
+//! neighbours. The stretch before the bracket is then taken by step doubling (no event in it),
 //! the bracket by one substep (the event acts there: the limits act on the gap predicted at the
 //! substep's end), and the rest of the step is the next segment. A step locates at most
 //! [`MAX_EVENTS`] events (a contact chattering on a stop would otherwise cut it without end);
@@ -94,7 +95,8 @@ struct Mark {
     stops: u8,
     /// Bit `k`: DOF `k` is locked.
     locks: u8,
-    /// The friction slips (`None`: no friction).
+    /// The friction slips (`None`: no friction, or no friction state yet: before the first
+    /// step, which is no event).
     slipping: Option<bool>,
 }
 
@@ -333,8 +335,12 @@ impl Mpc184World {
         // The world is at `lo` (the probe, or the segment's start while `lo` is 0).
         let mut at_lo = true;
         loop {
+            // Never wider than the substep the stretch is taken at: the event's substep must
+            // not be coarser than its neighbours (a stuck joint breaking away has no speed yet
+            // to bound the bracket by).
             let delta = (c.tolerance / (2.0 * v))
                 .min(c.energy_tolerance / (2.0 * power))
+                .min(h)
                 .max(floor);
             if hi - lo <= delta {
                 break;
@@ -454,7 +460,7 @@ impl Mpc184World {
                     EventKind::Lock
                 } else if b.stops & !a.stops != 0 {
                     EventKind::Stop
-                } else if a.slipping != b.slipping {
+                } else if matches!((a.slipping, b.slipping), (Some(x), Some(y)) if x != y) {
                     EventKind::StickSlip
                 } else {
                     return None;
