@@ -58,7 +58,8 @@ pub(crate) struct Core {
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 #[cfg_attr(
     feature = "serde-snapshot",
-    derive(serde::Serialize, serde::Deserialize)
+    derive(serde::Serialize, serde::Deserialize),
+    serde(default)
 )]
 pub struct StepStats {
     /// Steps taken (each with the `n` and `2 n` runs of its last try).

@@ -20,13 +20,23 @@ fn deck(outres: &[&str]) -> String {
 }
 
 fn written(f: OutputFrequency, steps: usize) -> Vec<usize> {
-    (0..steps).filter(|&i| f.writes(i, steps)).map(|i| i + 1).collect()
+    (0..steps)
+        .filter(|&i| f.writes(i, steps))
+        .map(|i| i + 1)
+        .collect()
 }
 
 #[test]
 fn frequencies_persist_per_load_step() {
     let d = parse_str(
-        &deck(&["", "OUTRES,ALL,5", "", "OUTRES,BASIC,-3", "OUTRES,ERASE", "OUTRES,ALL,LAST"]),
+        &deck(&[
+            "",
+            "OUTRES,ALL,5",
+            "",
+            "OUTRES,BASIC,-3",
+            "OUTRES,ERASE",
+            "OUTRES,ALL,LAST",
+        ]),
         "outres.inp",
     )
     .unwrap();
@@ -42,8 +52,11 @@ fn frequencies_persist_per_load_step() {
             Some(OutputFrequency::Last),
         ]
     );
-    let d = parse_str(&deck(&["OUTRES,ALL,ALL", "OUTRES,NSOL,NONE", "OUTRES,ALL"]), "o.inp")
-        .unwrap();
+    let d = parse_str(
+        &deck(&["OUTRES,ALL,ALL", "OUTRES,NSOL,NONE", "OUTRES,ALL"]),
+        "o.inp",
+    )
+    .unwrap();
     let got: Vec<_> = d.load_steps.iter().map(|l| l.outres).collect();
     assert_eq!(
         got,

@@ -311,7 +311,7 @@ fn clear_resets_the_model() {
 #[test]
 fn ineffective_commands_leave_one_note_each() {
     let deck = parse_str(
-        "NLGEOM,ON\nOUTRES,ALL,ALL\nTINTP,0.1\n/OUT,scratch\n",
+        "NLGEOM,ON\nOUTRES,STAT\nTINTP,0.1\n/OUT,scratch\n",
         "n.inp",
     )
     .unwrap();

@@ -149,7 +149,13 @@ fn every_impact_is_located_and_the_first_at_its_time() {
 
 #[test]
 fn a_breakaway_is_located_at_the_friction_limit() {
-    let (m, g, mu, ri, k) = (2.0 as Real, 9.81 as Real, 0.2 as Real, 0.03 as Real, 0.3 as Real);
+    let (m, g, mu, ri, k) = (
+        2.0 as Real,
+        9.81 as Real,
+        0.2 as Real,
+        0.03 as Real,
+        0.3 as Real,
+    );
     let tolerance = 1e-6;
     let mut world = Mpc184World::new(WorldSettings {
         substeps: 1,
@@ -196,6 +202,10 @@ fn a_breakaway_is_located_at_the_friction_limit() {
         event.time - 2.0 * event.width < t_b && t_b <= event.time + event.width,
         "bracket misses the breakaway time by more than its width"
     );
-    assert!(event.width <= 1.0 / 60.0 / 64.0, "width {:.3e} s", event.width);
+    assert!(
+        event.width <= 1.0 / 60.0 / 64.0,
+        "width {:.3e} s",
+        event.width
+    );
     assert!(world.output(id).unwrap().friction.unwrap().slipping);
 }

@@ -624,6 +624,48 @@ fn print_warnings(model: &DeckModel) {
     }
 }
 
+/// The summary's line on `AUTOTS`: steps, retries, substep sizes, the last cut and the last
+/// event located.
+fn autots_summary(model: &DeckModel, stats: &StepStats) -> String {
+    // AUTOTS: what the step doubling chose.
+    let cut = match stats.last_cut {
+        Some((t, joint)) => {
+            let element = joint
+                .and_then(|id| model.joints.iter().find(|j| j.id == id))
+                .map_or_else(String::new, |j| format!(", at joint element {}", j.element));
+            format!("; last cut in the step from t = {t:.6} s{element}")
+        }
+        None => String::new(),
+    };
+    let event = match stats.last_event {
+        Some(e) => {
+            let element = model.joints.iter().find(|j| j.id == e.joint).map_or_else(
+                || e.joint.to_string(),
+                |j| format!("joint element {}", j.element),
+            );
+            format!(
+                "; {} event(s) located, the last a {:?} at {element} in ({:.9}, {:.9}] s",
+                stats.events,
+                e.kind,
+                e.time - e.width,
+                e.time
+            )
+        }
+        None => String::new(),
+    };
+    format!(
+        "automatic time stepping: {} steps, {} retried with more substeps, substeps from \
+         {:.4e} to {:.4e} s, {} step(s) at the dtmin limit over the tolerance, {} substeps \
+         integrated in all{cut}{event}",
+        stats.accepted,
+        stats.rejected,
+        stats.smallest_substep,
+        stats.largest_substep,
+        stats.unmet,
+        stats.substeps
+    )
+}
+
 fn print_summary(
     model: &DeckModel,
     e: &EnergyReport,
@@ -640,43 +682,7 @@ fn print_summary(
     let fallback = model.world.lagrange_diagnostics().first_order_steps;
     let stats = model.world.step_stats();
     let substeps = if stats.accepted > 0 {
-        // AUTOTS: what the step doubling chose.
-        let cut = match stats.last_cut {
-            Some((t, joint)) => {
-                let element = joint
-                    .and_then(|id| model.joints.iter().find(|j| j.id == id))
-                    .map_or_else(String::new, |j| format!(", at joint element {}", j.element));
-                format!("; last cut in the step from t = {t:.6} s{element}")
-            }
-            None => String::new(),
-        };
-        let event = match stats.last_event {
-            Some(e) => {
-                let element = model.joints.iter().find(|j| j.id == e.joint).map_or_else(
-                    || e.joint.to_string(),
-                    |j| format!("joint element {}", j.element),
-                );
-                format!(
-                    "; {} event(s) located, the last a {:?} at {element} in ({:.9}, {:.9}] s",
-                    stats.events,
-                    e.kind,
-                    e.time - e.width,
-                    e.time
-                )
-            }
-            None => String::new(),
-        };
-        format!(
-            "automatic time stepping: {} steps, {} retried with more substeps, substeps from \
-             {:.4e} to {:.4e} s, {} step(s) at the dtmin limit over the tolerance, {} substeps \
-             integrated in all{cut}{event}",
-            stats.accepted,
-            stats.rejected,
-            stats.smallest_substep,
-            stats.largest_substep,
-            stats.unmet,
-            stats.substeps
-        )
+        autots_summary(model, &stats)
     } else {
         format!("{} substeps per step", settings.substeps)
     };

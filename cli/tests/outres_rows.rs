@@ -60,5 +60,8 @@ fn rows_follow_outres() {
         assert_eq!(t.len(), 2, "{f}: {t:?}");
         assert!((t[1] - 2.0).abs() < 1e-9);
     }
-    assert_eq!(run("override", "OUTRES,ALL,60", &["--every", "240"]).len(), 3);
+    assert_eq!(
+        run("override", "OUTRES,ALL,60", &["--every", "240"]).len(),
+        3
+    );
 }

@@ -8,8 +8,8 @@ use super::expr::{AngleUnit, ExprError, MAX_DEPTH, evaluate};
 use super::model::{
     AnalysisType, CoordinateSystem, Deck, DofLabel, DofRange, Element, ElementName, ElementType,
     ForceLabel, InitialCondition, JoinTable, JointLoad, JointMotion, JointSection, JointSubtype,
-    LoadRamp, LoadStep, NodalConstraint, NodalForce, Node, NodeAxis, Note, RealConstants,
-    OutputFrequency, RigidRegion, SpotweldCenter, Substeps, TimeIncrement,
+    LoadRamp, LoadStep, NodalConstraint, NodalForce, Node, NodeAxis, Note, OutputFrequency,
+    RealConstants, RigidRegion, SpotweldCenter, Substeps, TimeIncrement,
 };
 
 /// Reads a deck from text. `file` is only used in error messages and [`Deck::file`].
@@ -536,9 +536,9 @@ impl Reader {
             }
             None | Some("ALL" | "BASIC") => {}
             Some(
-                "NSOL" | "RSOL" | "V" | "A" | "ESOL" | "NLOAD" | "STRS" | "EPEL" | "EPTH"
-                | "EPPL" | "EPCR" | "EPDI" | "FGRAD" | "FFLUX" | "LOCI" | "VENG" | "MISC"
-                | "FMAG" | "CURD" | "NLDAT" | "EHEAT" | "ETMP" | "SVAR" | "CINT" | "NAR",
+                "NSOL" | "RSOL" | "V" | "A" | "ESOL" | "NLOAD" | "STRS" | "EPEL" | "EPTH" | "EPPL"
+                | "EPCR" | "EPDI" | "FGRAD" | "FFLUX" | "LOCI" | "VENG" | "MISC" | "FMAG" | "CURD"
+                | "NLDAT" | "EHEAT" | "ETMP" | "SVAR" | "CINT" | "NAR",
             ) => {
                 let it = item.as_deref().unwrap_or_default();
                 self.note(format!(
@@ -568,7 +568,9 @@ impl Reader {
                 if n.fract() != 0.0 || n == 0.0 || n.abs() > u32::MAX as f64 {
                     return Err(self.invalid(
                         2,
-                        format!("OUTRES's Freq is a nonzero whole number, ALL, LAST or NONE, got {n}"),
+                        format!(
+                            "OUTRES's Freq is a nonzero whole number, ALL, LAST or NONE, got {n}"
+                        ),
                     ));
                 }
                 if n > 0.0 {

@@ -121,6 +121,10 @@ enum Outcome {
     Event(Real),
 }
 
+/// An event's bracket `(lo, hi]` from a stretch's start (s), and its joint and kind when a run
+/// named it.
+type Bracket = (Real, Real, Option<(JointId, EventKind)>);
+
 /// A dynamic body's handle, centre of mass, orientation and velocities.
 type BodyState = (RigidBodyHandle, Vector, Rotation, Vector, Vector);
 
@@ -316,7 +320,7 @@ impl Mpc184World {
         h: Real,
         marks: &[Mark],
         c: &Control,
-    ) -> Result<(Real, Real, Option<(JointId, EventKind)>), Error> {
+    ) -> Result<Bracket, Error> {
         let size = self.model_size();
         let speed = |w: &Self| {
             w.dynamic_states()

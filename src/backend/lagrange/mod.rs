@@ -69,7 +69,7 @@ use crate::math::rapier::dynamics::RigidBodyHandle;
 use crate::math::{Matrix, Pose, Real, Rotation, Vector};
 use crate::output::EnergyLedger;
 use crate::rows::RowKind;
-use crate::solver::kkt::KktSolver;
+use crate::solver::kkt::{JAC_ROW_STRIDE, KktSolver};
 
 use super::Sets;
 
@@ -479,14 +479,16 @@ impl LagrangeBackend {
             if let Some(&Some((i, k))) = self.block_of.get(ji)
                 && let Some(rows) = self.islands[i].block_rows(k)
             {
-                let impulse = &self.islands[i].impulse;
-                let h = self.islands[i].last_h;
-                let fp = e.low_frames(bodies);
-                for (row, r) in e.state.rows.iter().zip(rows) {
-                    let ev = row.eval(&fp);
-                    let m = impulse[r] / h;
-                    f += ev.j2[0] * m;
-                    tau += ev.j2[1] * m;
+                // The Jacobian arena holds every row's derivative with respect to body 2 at
+                // the last substep's end, the state written back (the last row evaluation of
+                // a substep is at its end): the rows need not be evaluated again.
+                let island = &self.islands[i];
+                let h = island.last_h;
+                for r in rows {
+                    let jr = &island.jac[JAC_ROW_STRIDE * r + 6..JAC_ROW_STRIDE * (r + 1)];
+                    let m = island.impulse[r] / h;
+                    f += Vector::new(jr[0], jr[1], jr[2]) * m;
+                    tau += Vector::new(jr[3], jr[4], jr[5]) * m;
                 }
             }
             // Springs, dampers, loads and limit impulses of the last substep.
