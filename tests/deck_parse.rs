@@ -310,11 +310,7 @@ fn clear_resets_the_model() {
 
 #[test]
 fn ineffective_commands_leave_one_note_each() {
-    let deck = parse_str(
-        "NLGEOM,ON\nOUTRES,STAT\nTINTP,0.1\n/OUT,scratch\n",
-        "n.inp",
-    )
-    .unwrap();
+    let deck = parse_str("NLGEOM,ON\nOUTRES,STAT\nTINTP,0.1\n/OUT,scratch\n", "n.inp").unwrap();
     let lines: Vec<_> = deck.notes.iter().map(|n| n.line).collect();
     assert_eq!(lines, [1, 2, 3, 4]);
     assert!(deck.notes[0].text.starts_with("NLGEOM"));
