@@ -274,14 +274,23 @@ fn normal_force(
 
 /// The reactions of joint `j` in this substep so far (forces then moments on node J, frame I;
 /// N and N m) from its rows' impulses, and the screw coupling row's multiplier.
+///
+/// The impulses so far answer the kick before the velocity solve: the whole substep's forces
+/// in the first-order step, half of them in RATTLE (its first half kick), so they are divided
+/// by `h` or by `h / 2`. (Dividing RATTLE's by `h` halved the normal force: a friction wheel
+/// broke away at half its limit moment.)
 fn reactions(ls: &Island, e: &JointEntry, j: usize, f: &FramePair, h: Real) -> ([Real; 6], Real) {
     let Some(range) = ls.rows_of(j) else {
         return ([0.0; 6], 0.0);
     };
+    let half = (ls.blocks.binary_search(&j).ok())
+        .and_then(|k| ls.kkt.as_ref()?.joint_specs().get(k).copied())
+        .is_some_and(|spec| spec.bodies.iter().flatten().any(|&i| ls.second[i]));
+    let span = if half { 0.5 * h } else { h };
     let (mut force, mut torque, mut screw) = (Vector::ZERO, Vector::ZERO, 0.0);
     for (row, r) in e.state.rows.iter().zip(range) {
         let jr = &ls.jac[JAC_ROW_STRIDE * r..];
-        let m = ls.impulse[r] / h;
+        let m = ls.impulse[r] / span;
         force += Vector::new(jr[6], jr[7], jr[8]) * m;
         torque += Vector::new(jr[9], jr[10], jr[11]) * m;
         if matches!(row, RowKind::Screw { .. }) {
