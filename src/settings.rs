@@ -40,7 +40,8 @@ pub enum StepControl {
     /// estimate is within `tolerance`; otherwise `n` doubles and the step is taken again, up to
     /// `max_substeps`. `n` starts at `substeps` and follows the estimate from step to step
     /// (halved when even the `n` result would have passed). A checked step costs about three
-    /// times a fixed step of `n` substeps. (Checking only every 8th step, the steps between at
+    /// times a fixed step of `n` substeps; a retry reuses the last try's `2 n` run as its
+    /// coarse run (the same substeps from the same state). (Checking only every 8th step, the steps between at
     /// the checked step's substeps, was tried: it saved a third of the cost but let the error
     /// run to 108 times the request on A01 and far more on the four-bar, whose demand changes
     /// within 8 steps; every step is checked.)

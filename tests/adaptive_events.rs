@@ -90,7 +90,7 @@ fn the_lock_step_is_refined_to_the_energy_tolerance() {
 /// located and taken in a substep of its own. Checked: as many events as impacts in 10 s (each
 /// reported with the hinge), and across every impact step the energy changes by at most 1e-6 m g
 /// L (the target; RATTLE's energy-consistent impact). Measured: 27 impacts, 27 events,
-/// 1.2e-7 m g L at most across an impact (the fixed step at 1/60 x 4: 3.7e-7), for 8840
+/// 1.2e-7 m g L at most across an impact (the fixed step at 1/60 x 4: 3.7e-7), for 8650
 /// substeps in 600 steps (the fixed x4: 2400; the adaptive run also holds the trajectory to
 /// 1e-6 m per step, which x4 does not).
 #[test]

@@ -33,6 +33,7 @@
 use crate::error::{Error, JointId};
 use crate::math::rapier::dynamics::RigidBodyHandle;
 use crate::math::{Real, Rotation, Vector};
+use crate::output::EnergyLedger;
 
 use super::Mpc184World;
 
@@ -238,17 +239,26 @@ impl Mpc184World {
         watch: Option<&[Mark]>,
     ) -> Result<Outcome, Error> {
         let size = self.model_size();
+        let mut m = substeps_for(span, c.dt, n);
+        // After a rejection the fine run of the last try is the coarse run of the next (the
+        // same substeps from the same state: the same result to the bit), so it is not run
+        // again.
+        let mut reuse: Option<(Vec<BodyState>, EnergyLedger)> = None;
         loop {
-            let m = substeps_for(span, c.dt, n);
-            self.step_unchecked(span, m)?;
-            self.core.stats.substeps += m as u64;
-            if watch.is_some_and(|marks| self.onset(marks).is_some()) {
-                self.restore_segment();
-                return Ok(Outcome::Event(span / (2 * m) as Real));
-            }
-            let coarse = self.dynamic_states();
-            let coarse_ledger = self.core.progress.ledger;
-            self.restore_segment();
+            let (coarse, coarse_ledger) = match reuse.take() {
+                Some(kept) => kept,
+                None => {
+                    self.step_unchecked(span, m)?;
+                    self.core.stats.substeps += m as u64;
+                    if watch.is_some_and(|marks| self.onset(marks).is_some()) {
+                        self.restore_segment();
+                        return Ok(Outcome::Event(span / (2 * m) as Real));
+                    }
+                    let run = (self.dynamic_states(), self.core.progress.ledger);
+                    self.restore_segment();
+                    run
+                }
+            };
             self.step_unchecked(span, 2 * m)?;
             self.core.stats.substeps += 2 * m as u64;
             if watch.is_some_and(|marks| self.onset(marks).is_some()) {
@@ -303,10 +313,18 @@ impl Mpc184World {
             }
             self.core.stats.rejected += 1;
             let joint = worst.and_then(|h| self.core.joints.attached_to(h).first().copied());
+            let fine = (self.dynamic_states(), ledger);
             self.restore_segment();
             self.core.stats.last_cut = Some((self.time(), joint));
             // Twice the substeps, at most `max` per `dt` in the kept run.
-            n = (2 * n).min(c.max / 2);
+            let doubled = (2 * n).min(c.max / 2);
+            if doubled == 2 * n {
+                reuse = Some(fine);
+                m *= 2;
+            } else {
+                m = substeps_for(span, c.dt, doubled);
+            }
+            n = doubled;
         }
     }
 
