@@ -107,6 +107,9 @@ pub(crate) struct RapierBackend {
     touched: Vec<RigidBodyHandle>,
     #[cfg_attr(feature = "serde-snapshot", serde(skip))]
     touched_for: Option<u64>,
+    /// The reaction recovery's buffers, kept from step to step (see `reactions`).
+    #[cfg_attr(feature = "serde-snapshot", serde(skip))]
+    scratch: reactions::Scratch,
 }
 
 /// What a step changes in the Rapier backends beyond the bodies: the multibody set (its

@@ -12,6 +12,25 @@ use crate::solver::kkt::{JointBlockSpec, KktSolver};
 use super::super::Sets;
 use super::RapierBackend;
 
+/// The reaction recovery's buffers, kept from step to step: they are rebuilt every step, and
+/// allocating them anew cost about a third of the impulse backend's step on the 1000-joint
+/// mixed scene (their growth by `realloc`, and the pages the allocator returned to the system
+/// and faulted in again).
+#[derive(Default)]
+pub(crate) struct Scratch {
+    index: HashMap<RigidBodyHandle, usize>,
+    mass: Vec<[Real; 36]>,
+    impulse: Vec<[Real; 6]>,
+    specs: Vec<JointBlockSpec>,
+    jac: Vec<Real>,
+    owner: Vec<(usize, RowEval)>,
+    /// Per row: the prescribed rate when it is a drive's row (its work is booked).
+    driven: Vec<Option<Real>>,
+    mu: Vec<Real>,
+    compliance: Vec<Real>,
+    wrench: Vec<(Vector, Vector)>,
+}
+
 impl RapierBackend {
     /// Splits the constraint impulses of the recorded span among the joints and writes each
     /// joint's reaction force and moment into its output (the world's substep `_h` is not it on
@@ -22,18 +41,28 @@ impl RapierBackend {
             return;
         }
         let starts = core::mem::take(&mut self.starts);
-        let index: HashMap<RigidBodyHandle, usize> = starts
-            .iter()
-            .enumerate()
-            .map(|(i, (b, _))| (*b, i))
-            .collect();
-        let (mass, mut impulse) = self.body_blocks(sets, &starts, h);
+        let mut sc = core::mem::take(&mut self.scratch);
+        sc.index.clear();
+        sc.index
+            .extend(starts.iter().enumerate().map(|(i, (b, _))| (*b, i)));
+        self.body_blocks(sets, &starts, h, &mut sc);
+        let Scratch {
+            index,
+            mass,
+            impulse,
+            specs,
+            jac,
+            owner,
+            driven,
+            mu,
+            compliance,
+            wrench,
+        } = &mut sc;
         // Rows halfway through the span: the constraint forces turn with the bodies over it.
-        let mut specs = Vec::new();
-        let mut jac: Vec<Real> = Vec::new();
-        let mut owner: Vec<(usize, RowEval)> = Vec::new();
-        // Per row: the prescribed rate when it is a drive's row (its work is booked below).
-        let mut driven: Vec<Option<Real>> = Vec::new();
+        specs.clear();
+        jac.clear();
+        owner.clear();
+        driven.clear();
         let (t0, t1) = (self.span_start, self.span_start + h);
         for (ji, e) in sets.joints.slots().iter().enumerate() {
             let Some(e) = e else { continue };
@@ -70,18 +99,20 @@ impl RapierBackend {
             }
         }
         // (J M^-1 J^T) mu = J M^-1 p: the KKT system with f = p, g = 0 and no compliance.
-        let mut mu = vec![0.0 as Real; owner.len()];
+        mu.clear();
+        mu.resize(owner.len(), 0.0);
         let rebuild = self
             .recovery
             .as_ref()
             .is_none_or(|k| k.joint_specs() != specs.as_slice() || k.num_bodies() != starts.len());
         if rebuild {
-            self.recovery = KktSolver::new(starts.len(), &specs).ok();
+            self.recovery = KktSolver::new(starts.len(), specs).ok();
         }
-        let compliance = vec![0.0 as Real; owner.len()];
+        compliance.clear();
+        compliance.resize(owner.len(), 0.0);
         if let Some(kkt) = self.recovery.as_mut()
-            && kkt.factor(&mass, &jac, &compliance).is_ok()
-            && kkt.solve(&mut impulse, &mut mu).is_ok()
+            && kkt.factor(mass, jac, compliance).is_ok()
+            && kkt.solve(impulse, mu).is_ok()
         {
             // mu now holds the multipliers (impulses, N s).
         } else {
@@ -90,15 +121,15 @@ impl RapierBackend {
         // A drive's work over the step: its force `mu / h` times the prescribed rate, over the
         // step (the recorded span is the whole step on the impulse backend, its last substep on
         // the multibody one).
-        for (rate, m) in driven.iter().zip(&mu) {
+        for (rate, m) in driven.iter().zip(mu.iter()) {
             if let Some(rate) = rate {
                 sets.ledger.work += m / h * rate * self.step_duration;
             }
         }
         // Accumulate each joint's wrench on body 2 and express it at node J in frame I.
-        let mut wrench: Vec<(Vector, Vector)> =
-            vec![(Vector::ZERO, Vector::ZERO); sets.joints.len()];
-        for ((ji, ev), m) in owner.iter().zip(&mu) {
+        wrench.clear();
+        wrench.resize(sets.joints.len(), (Vector::ZERO, Vector::ZERO));
+        for ((ji, ev), m) in owner.iter().zip(mu.iter()) {
             wrench[*ji].0 += ev.j2[0] * (*m / h);
             wrench[*ji].1 += ev.j2[1] * (*m / h);
         }
@@ -109,20 +140,25 @@ impl RapierBackend {
             }
         }
         self.starts = starts;
+        self.scratch = sc;
     }
 
     /// Per recorded body: the mass block `M_b` and the constraint impulse over the span `h`,
     /// `p_b = m dv - h f` and `l_b = I_1 w_1 - I_0 w_0 - h tau` (angular momenta at the end and
-    /// start poses).
+    /// start poses), into the scratch's `mass` and `impulse`.
     fn body_blocks(
         &self,
         sets: &Sets,
         starts: &[(RigidBodyHandle, super::BodyStart)],
         h: Real,
-    ) -> (Vec<[Real; 36]>, Vec<[Real; 6]>) {
+        sc: &mut Scratch,
+    ) {
         let nb = starts.len();
-        let mut mass = vec![[0.0 as Real; 36]; nb];
-        let mut impulse = vec![[0.0 as Real; 6]; nb];
+        let (mass, impulse) = (&mut sc.mass, &mut sc.impulse);
+        mass.clear();
+        mass.resize(nb, [0.0; 36]);
+        impulse.clear();
+        impulse.resize(nb, [0.0; 6]);
         for (i, (b, s)) in starts.iter().enumerate() {
             let rb = &sets.physics.bodies[*b];
             let m = rb.mass();
@@ -138,7 +174,6 @@ impl RapierBackend {
             let l = crate::body::world_inertia(rb) * w - s.momentum - s.torque * h;
             impulse[i] = [p.x, p.y, p.z, l.x, l.y, l.z];
         }
-        (mass, impulse)
     }
 }
 
