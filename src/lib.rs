@@ -116,7 +116,7 @@ pub mod prelude {
     pub use crate::joint::{ConstraintMethod, Mpc184Joint};
     pub use crate::math::{Real, Rotation, Vector};
     pub use crate::output::{EnergyReport, JointOutput};
-    pub use crate::settings::{Backend, Integrator, StepControl, WorldSettings};
+    pub use crate::settings::{Backend, Integrator, Outputs, StepControl, WorldSettings};
     #[cfg(feature = "serde-snapshot")]
     pub use crate::snapshot::Snapshot;
     pub use crate::spring::{SpringDamper, SpringId, SpringOutput};

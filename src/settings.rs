@@ -21,6 +21,33 @@ pub struct WorldSettings {
     /// How each step chooses its substeps (default: [`StepControl::Fixed`], `substeps` of them).
     #[serde(default)]
     pub control: StepControl,
+    /// What each step refreshes in the joints' outputs (default: [`Outputs::Full`]).
+    #[serde(default)]
+    pub outputs: Outputs,
+}
+
+/// What each step refreshes in the joints' outputs ([`crate::Mpc184World::output`]).
+///
+/// | level | relative DOFs, rates, gaps, stop/lock/friction status | reactions (`force`, `moment`, `element_force`) | cost per step, 1000-joint mixed scene, dt 1/60 x4 (`joint_bench --cost`; Rapier alone 1.2 ms) |
+/// |---|---|---|---|
+/// | [`Outputs::Full`] | every step | every step | Lagrange 6.2 ms, `rapier-impulse` 2.9 ms |
+/// | [`Outputs::Kinematics`] | every step | not computed (zero, or the last ones computed) | Lagrange the same (its reactions come from its multipliers), `rapier-impulse` 1.9 ms |
+///
+/// The divergence guard reads the gaps and rates, so they are refreshed at every level. On the
+/// Rapier backends the reactions are recovered by a momentum balance over the step (a sparse
+/// factorisation of the whole world): with `Kinematics` that is skipped unless some joint needs
+/// it, a joint with friction (its normal force is the last reaction) or a drive (its work is
+/// booked from its reaction). The motion is the same at both levels.
+#[derive(
+    Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize,
+)]
+pub enum Outputs {
+    /// Every output, every step.
+    #[default]
+    Full,
+    /// Everything but the reactions: what a game that reads poses, joint angles and status
+    /// pays for.
+    Kinematics,
 }
 
 /// How a step chooses its substeps. Each `step()` advances exactly `dt` either way (a game's
@@ -126,6 +153,7 @@ impl Default for WorldSettings {
             backend: Backend::default(),
             integrator: Integrator::default(),
             control: StepControl::Fixed,
+            outputs: Outputs::Full,
         }
     }
 }

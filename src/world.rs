@@ -21,7 +21,7 @@ use crate::math::rapier::dynamics::RigidBodyHandle;
 use crate::math::rapier::pipeline::PhysicsWorld;
 use crate::math::{Real, Vector};
 pub use crate::output::{EnergyReport, JointOutput};
-pub use crate::settings::{Integrator, StepControl, WorldSettings};
+pub use crate::settings::{Integrator, Outputs, StepControl, WorldSettings};
 use crate::spring::{SpringDamper, SpringEntry, SpringId, SpringOutput, SpringSet};
 use crate::statics::{StaticReport, StaticState};
 
@@ -702,8 +702,12 @@ impl Mpc184World {
             .step(&mut self.core.sets(&mut self.physics), h, n)?;
         self.core.progress.time += dt;
         self.check_bodies_finite()?;
-        self.backend
-            .write_reactions(&mut self.core.sets(&mut self.physics), h);
+        if self.core.settings.outputs == Outputs::Full
+            || self.backend.needs_reactions(&self.core.joints)
+        {
+            self.backend
+                .write_reactions(&mut self.core.sets(&mut self.physics), h);
+        }
         self.refresh_outputs();
         self.core.progress.ledger.work += start.work(&self.physics.bodies, &self.core.joints, dt);
         self.bounds().check(&self.core.joints, self.time())

@@ -105,9 +105,12 @@ fn time<E: std::fmt::Display>(mut step: impl FnMut() -> Result<(), E>) -> Timed 
     Timed { us, failure }
 }
 
-/// One backend on one scene.
-fn crate_backend(scene: &Scene, backend: Backend) -> Timed {
-    match (scene.build)(settings(backend)) {
+/// One backend on one scene, at the output level `outputs`.
+fn crate_backend(scene: &Scene, backend: Backend, outputs: Outputs) -> Timed {
+    match (scene.build)(WorldSettings {
+        outputs,
+        ..settings(backend)
+    }) {
         Ok(mut b) => time(|| b.world.step()),
         Err(e) => Timed {
             us: None,
@@ -151,18 +154,35 @@ pub fn cost_table(quick: bool) -> f64 {
         }
     );
     println!(
-        "{:<22} {:>6} {:>10} {:>10} {:>10} {:>10} {:>7} {:>7} {:>9}",
-        "scene", "joints", "lagrange", "impulse", "multibody", "rapier", "L/R", "I/R", "L us/jnt"
+        "(Lk, Ik: the Lagrange and rapier-impulse backends at `Outputs::Kinematics`, no reactions)"
+    );
+    println!(
+        "{:<22} {:>6} {:>10} {:>10} {:>10} {:>10} {:>7} {:>7} {:>9} {:>10} {:>10} {:>7} {:>7}",
+        "scene",
+        "joints",
+        "lagrange",
+        "impulse",
+        "multibody",
+        "rapier",
+        "L/R",
+        "I/R",
+        "L us/jnt",
+        "Lk",
+        "Ik",
+        "Lk/R",
+        "Ik/R"
     );
     let mut worst: f64 = 0.0;
     for scene in scenes() {
-        let lagrange = crate_backend(&scene, Backend::Lagrange);
-        let impulse = crate_backend(&scene, Backend::RapierImpulse);
+        let lagrange = crate_backend(&scene, Backend::Lagrange, Outputs::Full);
+        let impulse = crate_backend(&scene, Backend::RapierImpulse, Outputs::Full);
+        let lagrange_kin = crate_backend(&scene, Backend::Lagrange, Outputs::Kinematics);
+        let impulse_kin = crate_backend(&scene, Backend::RapierImpulse, Outputs::Kinematics);
         // Multibody chains cost ~N^2 (measured exponent 2.1; and the 1000-link one minutes): run where cheap.
         let multibody = if quick || scene.joints > 100 {
             SKIPPED
         } else {
-            crate_backend(&scene, Backend::RapierMultibody)
+            crate_backend(&scene, Backend::RapierMultibody, Outputs::Full)
         };
         let rapier = rapier_alone(&scene);
         // `*`: the run failed after the timed steps (the figure is the cost up to then).
@@ -182,7 +202,7 @@ pub fn cost_table(quick: bool) -> f64 {
         }
         let fmt = |x: Option<f64>| x.map_or("-".to_string(), |x| format!("{x:.2}"));
         println!(
-            "{:<22} {:>6} {:>10} {:>10} {:>10} {:>10} {:>7} {:>7} {:>9}",
+            "{:<22} {:>6} {:>10} {:>10} {:>10} {:>10} {:>7} {:>7} {:>9} {:>10} {:>10} {:>7} {:>7}",
             scene.name,
             scene.joints,
             show(&lagrange),
@@ -195,6 +215,10 @@ pub fn cost_table(quick: bool) -> f64 {
                 "{:.2}",
                 us / scene.joints as f64
             )),
+            show(&lagrange_kin),
+            show(&impulse_kin),
+            fmt(ratio(&lagrange_kin)),
+            fmt(ratio(&impulse_kin)),
         );
         for (name, r) in [
             ("lagrange", &lagrange),

@@ -251,6 +251,18 @@ impl JointBackend {
         }
     }
 
+    /// The step needs the reactions whatever the output level: on the Rapier backends a joint
+    /// with friction (its normal force is the last reaction) or a drive (its work is booked
+    /// from its reaction). The Lagrange backend takes both from its own multipliers.
+    pub(crate) fn needs_reactions(&self, joints: &JointSet) -> bool {
+        match self {
+            JointBackend::Lagrange(_) => false,
+            JointBackend::Rapier(_) => joints
+                .iter()
+                .any(|e| e.joint.behaviour.friction.is_some() || !e.drives.is_empty()),
+        }
+    }
+
     /// Writes every joint's reaction (and element forces) of the last substep `h` into its
     /// output.
     pub(crate) fn write_reactions(&mut self, sets: &mut Sets, h: Real) {
