@@ -527,10 +527,15 @@ impl JointEntry {
     pub(crate) fn measures(&self, bodies: &RigidBodySet) -> ([Real; 6], [Real; 3]) {
         let f1 = *bodies[self.body1].position() * self.ansys[0];
         let f2 = *bodies[self.body2].position() * self.ansys[1];
-        let a1 = Matrix::from_quat(f1.rotation);
+        self.measures_at(&f1, &f2, &Matrix::from_quat(f1.rotation))
+    }
+
+    /// [`JointEntry::measures`] from the ANSYS frames `f1`, `f2` in the world and `a1`, the
+    /// axes of `f1`.
+    fn measures_at(&self, f1: &Pose, f2: &Pose, a1: &Matrix) -> ([Real; 6], [Real; 3]) {
         let a2 = Matrix::from_quat(f2.rotation);
-        let u = kinematics::relative_displacement(&a1, f1.translation, f2.translation);
-        let rel = kinematics::relative_rotation(&a1, &a2);
+        let u = kinematics::relative_displacement(a1, f1.translation, f2.translation);
+        let rel = kinematics::relative_rotation(a1, &a2);
         // The genb joint measures its rotations as 3-1-3 Euler angles (alpha about e3, beta
         // about the intermediate x, gamma about the final z), reported in the ROTX, ROTY, ROTZ
         // slots in that order (our reading: the text names the angles, not their slots);
@@ -551,7 +556,7 @@ impl JointEntry {
         let fp = FramePair::at(&self.low, (p1, Vector::ZERO), (p2, Vector::ZERO));
         let (mut gap, mut angular_gap): (Real, Real) = (0.0, 0.0);
         for r in &self.state.rows {
-            let c = r.eval(&fp).value.abs();
+            let c = r.value(&fp).abs();
             match r {
                 RowKind::Linear { .. } | RowKind::Screw { .. } | RowKind::Distance { .. } => {
                     gap = gap.max(c);
@@ -572,10 +577,10 @@ impl JointEntry {
         bodies: &RigidBodySet,
         velocity: impl Fn(RigidBodyHandle) -> (Vector, Vector),
     ) {
-        let (mut m, wrapped) = self.measures(bodies);
         let f1 = *bodies[self.body1].position() * self.ansys[0];
         let f2 = *bodies[self.body2].position() * self.ansys[1];
         let a1 = Matrix::from_quat(f1.rotation);
+        let (mut m, wrapped) = self.measures_at(&f1, &f2, &a1);
         let point = |b: RigidBodyHandle, x: Vector| {
             let rb = &bodies[b];
             if !rb.is_dynamic() {
