@@ -595,7 +595,8 @@ fn every_shipped_deck_parses() {
             "slider_crank",
             "slider_crank_spatial",
             "slider_crank_static",
-            "stops_locks"
+            "stops_locks",
+            "stops_locks_autots"
         ]
     );
 }
