@@ -293,9 +293,6 @@ pub(crate) struct Island {
     /// the warm start of the next one.
     mu: Vec<Real>,
     mu_prev: Vec<Real>,
-    /// The multipliers of the substep before `mu_prev` (quadratic extrapolation).
-    #[cfg_attr(feature = "serde-snapshot", serde(default))]
-    mu_prev2: Vec<Real>,
     rhs_b: Vec<[Real; 6]>,
     rhs_j: Vec<Real>,
     /// Applied impulse per row accumulated over the current substep (N s).

@@ -165,27 +165,15 @@ impl Island {
     fn warm_start(&mut self, joints: &JointSet, bodies: &RigidBodySet, h: Real) {
         if self.redundant || self.mu.iter().all(|m| *m == 0.0) {
             self.mu.iter_mut().for_each(|m| *m = 0.0);
-            self.mu_prev2.clear();
             return;
         }
-        // Quadratic extrapolation of the multipliers from the last three substeps (linear while
-        // only two are known; they vary smoothly with time). Against the linear one it cut the
-        // chord iterations of the 1000-joint mixed scene from 2-3 to 1-2 per substep and the
-        // step by 7 % (6454 -> 6011 us, best of 5 interleaved runs). Not where they do not vary
-        // smoothly: on bodies given added inertia (the scaling of
+        // Linear extrapolation of the multipliers from the last two substeps (they vary smoothly
+        // with time), except where they do not: on bodies given added inertia (the scaling of
         // the multipliers changes with it from substep to substep: the 1:1000 chain needed 5
         // iterations instead of 2) and on penalty rows (their projection target moves with
         // their own impulse: the k = 1e10 pendulum's gap * k moved by 1 %).
         let smooth = self.report.stiffened_bodies == 0 && self.kpen.iter().all(|k| *k == 0.0);
-        if smooth && self.mu_prev2.len() == self.mu.len() {
-            for r in 0..self.mu.len() {
-                let m = self.mu[r];
-                self.mu[r] = 3.0 * m - 3.0 * self.mu_prev[r] + self.mu_prev2[r];
-                self.mu_prev2[r] = self.mu_prev[r];
-                self.mu_prev[r] = m;
-            }
-        } else if smooth && self.mu_prev.len() == self.mu.len() {
-            self.mu_prev2.clone_from(&self.mu_prev);
+        if smooth && self.mu_prev.len() == self.mu.len() {
             for r in 0..self.mu.len() {
                 let m = self.mu[r];
                 self.mu[r] = 2.0 * m - self.mu_prev[r];
@@ -193,7 +181,6 @@ impl Island {
             }
         } else {
             self.mu_prev.clone_from(&self.mu);
-            self.mu_prev2.clear();
         }
         let Some(kkt) = self.kkt.as_ref() else { return };
         for (b, s) in self.backup.iter_mut().zip(&self.st) {
