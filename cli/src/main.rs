@@ -585,7 +585,7 @@ fn diverged(model: &DeckModel, k: usize, e: Error, w: &Writers) -> Failure {
             reason,
         } => {
             let at = joint
-                .and_then(|id| model.joints.iter().find(|j| j.id == id))
+                .and_then(|id| model.deck_joint(id))
                 .map_or_else(String::new, |j| {
                     format!(" at joint element {} ({})", j.element, j.kind.name())
                 });
@@ -631,7 +631,7 @@ fn autots_summary(model: &DeckModel, stats: &StepStats) -> String {
     let cut = match stats.last_cut {
         Some((t, joint)) => {
             let element = joint
-                .and_then(|id| model.joints.iter().find(|j| j.id == id))
+                .and_then(|id| model.deck_joint(id))
                 .map_or_else(String::new, |j| format!(", at joint element {}", j.element));
             format!("; last cut in the step from t = {t:.6} s{element}")
         }
@@ -639,7 +639,7 @@ fn autots_summary(model: &DeckModel, stats: &StepStats) -> String {
     };
     let event = match stats.last_event {
         Some(e) => {
-            let element = model.joints.iter().find(|j| j.id == e.joint).map_or_else(
+            let element = model.deck_joint(e.joint).map_or_else(
                 || e.joint.to_string(),
                 |j| format!("joint element {}", j.element),
             );

@@ -185,9 +185,8 @@ impl Mpc184World {
                         }
                         self.gather_acted(&mut acted);
                     }
-                    self.step_unchecked(hi - lo, 1)?;
+                    self.run_part(hi - lo, 1)?;
                     self.gather_acted(&mut acted);
-                    self.core.stats.substeps += 1;
                     self.note_substep(hi - lo);
                     events += 1;
                     // The stretch before the bracket was taken again by the doubling, at its
@@ -248,10 +247,8 @@ impl Mpc184World {
             let (coarse, coarse_ledger) = match reuse.take() {
                 Some(kept) => kept,
                 None => {
-                    self.step_unchecked(span, m)?;
-                    self.core.stats.substeps += m as u64;
-                    if watch.is_some_and(|marks| self.onset(marks).is_some()) {
-                        self.restore_segment();
+                    self.run_part(span, m)?;
+                    if self.event_seen(watch) {
                         return Ok(Outcome::Event(span / (2 * m) as Real));
                     }
                     let run = (self.dynamic_states(), self.core.progress.ledger);
@@ -259,10 +256,8 @@ impl Mpc184World {
                     run
                 }
             };
-            self.step_unchecked(span, 2 * m)?;
-            self.core.stats.substeps += 2 * m as u64;
-            if watch.is_some_and(|marks| self.onset(marks).is_some()) {
-                self.restore_segment();
+            self.run_part(span, 2 * m)?;
+            if self.event_seen(watch) {
                 return Ok(Outcome::Event(span / (2 * m) as Real));
             }
             let ledger = self.core.progress.ledger;
@@ -380,8 +375,7 @@ impl Mpc184World {
             }
             let mid = 0.5 * (lo + hi);
             let m = substeps_for(mid - lo, h, 1);
-            self.step_unchecked(mid - lo, m)?;
-            self.core.stats.substeps += m as u64;
+            self.run_part(mid - lo, m)?;
             if let Some(found) = self.onset(marks) {
                 event = Some(found);
                 hi = mid;
@@ -419,6 +413,23 @@ impl Mpc184World {
         for (a, m) in acted.iter_mut().zip(marks) {
             *a |= m.stops;
         }
+    }
+
+    /// Integrates `span` in `m` substeps from the state now, counting them in the stats.
+    fn run_part(&mut self, span: Real, m: usize) -> Result<(), Error> {
+        self.step_unchecked(span, m)?;
+        self.core.stats.substeps += m as u64;
+        Ok(())
+    }
+
+    /// With `watch`, the run just taken shows an event against those marks: then the world is
+    /// put back at the segment's start.
+    fn event_seen(&mut self, watch: Option<&[Mark]>) -> bool {
+        let seen = watch.is_some_and(|marks| self.onset(marks).is_some());
+        if seen {
+            self.restore_segment();
+        }
+        seen
     }
 
     /// Records a kept substep in the smallest and largest.

@@ -85,6 +85,12 @@ impl DeckModel {
         self.joints.iter().find(|j| j.element == elem).map(|j| j.id)
     }
 
+    /// The deck's joint element that became world joint `id` (what a message about a joint
+    /// names), if any: a grounded joint standing for a nodal `D` has none.
+    pub fn deck_joint(&self, id: JointId) -> Option<&DeckJoint> {
+        self.joints.iter().find(|j| j.id == id)
+    }
+
     /// `DJ`: displacement drives ramped or stepped from the previous load step's value (or the
     /// DOF's current value); velocity and acceleration drives from the previous load step's
     /// value, else the DOF's current rate (or 0 for an acceleration). Drives of the previous

@@ -280,11 +280,13 @@ fn normal_force(
 /// by `h` or by `h / 2`. (Dividing RATTLE's by `h` halved the normal force: a friction wheel
 /// broke away at half its limit moment.)
 fn reactions(ls: &Island, e: &JointEntry, j: usize, f: &FramePair, h: Real) -> ([Real; 6], Real) {
-    let Some(range) = ls.rows_of(j) else {
+    let Some((k, range)) =
+        (ls.blocks.binary_search(&j).ok()).and_then(|k| Some((k, ls.block_rows(k)?)))
+    else {
         return ([0.0; 6], 0.0);
     };
-    let half = (ls.blocks.binary_search(&j).ok())
-        .and_then(|k| ls.kkt.as_ref()?.joint_specs().get(k).copied())
+    let half = (ls.kkt.as_ref())
+        .and_then(|kkt| kkt.joint_specs().get(k))
         .is_some_and(|spec| spec.bodies.iter().flatten().any(|&i| ls.second[i]));
     let span = if half { 0.5 * h } else { h };
     let (mut force, mut torque, mut screw) = (Vector::ZERO, Vector::ZERO, 0.0);
