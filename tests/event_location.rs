@@ -36,7 +36,6 @@
 
 mod common;
 
-use rapier3d_mpc184::math::rapier::prelude::{MassProperties, RigidBodyBuilder};
 use rapier3d_mpc184::prelude::*;
 
 #[test]
@@ -157,24 +156,19 @@ fn a_breakaway_is_located_at_the_friction_limit() {
         0.3 as Real,
     );
     let tolerance = 1e-6;
-    let mut world = Mpc184World::new(WorldSettings {
-        substeps: 1,
-        control: StepControl::Adaptive {
-            tolerance,
-            energy_tolerance: Real::INFINITY,
-            max_substeps: 1 << 12,
+    let (mut world, id) = common::friction_wheel(
+        WorldSettings {
+            substeps: 1,
+            control: StepControl::Adaptive {
+                tolerance,
+                energy_tolerance: Real::INFINITY,
+                max_substeps: 1 << 12,
+            },
+            ..WorldSettings::default()
         },
-        ..WorldSettings::default()
-    });
-    world.physics.gravity = Vector::new(0.0, -g, 0.0);
-    let b = world.physics.bodies.insert(
-        RigidBodyBuilder::dynamic()
-            .additional_mass_properties(MassProperties::new(Vector::ZERO, m, Vector::splat(0.1)))
-            .can_sleep(false),
+        Vector::new(0.0, -g, 0.0),
+        FrictionLaw::Coulomb(mu),
     );
-    let joint = Mpc184Joint::revolute(Axis::Z, Vector::ZERO)
-        .with_friction(Friction::coulomb(mu, [Some(0.05), Some(ri), None]));
-    let id = world.insert_joint(None, Some(b), joint).unwrap();
     let ramp = DriveProfile {
         t0: 0.0,
         t1: 1.0,

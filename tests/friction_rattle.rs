@@ -12,10 +12,12 @@
 //! is the weight, `m g R_i` as a moment, to 1e-6 (the regularisation is 1e-8).
 #![cfg(feature = "f64")]
 
-use rapier3d_mpc184::math::rapier::prelude::{MassProperties, RigidBodyBuilder};
+mod common;
+
 use rapier3d_mpc184::output::FrictionState;
 use rapier3d_mpc184::prelude::*;
 
+// The constants of `common::friction_wheel`.
 const M: Real = 2.0;
 const I: Real = 0.1;
 const MU: Real = 0.2;
@@ -23,19 +25,14 @@ const RI: Real = 0.03;
 const G: Real = 9.81;
 
 fn turn(moment: Real) -> (Real, FrictionState) {
-    let mut world = Mpc184World::new(WorldSettings {
-        integrator: Integrator::Rattle,
-        ..WorldSettings::default()
-    });
-    world.physics.gravity = Vector::new(0.0, -G, 0.0);
-    let b = world.physics.bodies.insert(
-        RigidBodyBuilder::dynamic()
-            .additional_mass_properties(MassProperties::new(Vector::ZERO, M, Vector::splat(I)))
-            .can_sleep(false),
+    let (mut world, id) = common::friction_wheel(
+        WorldSettings {
+            integrator: Integrator::Rattle,
+            ..WorldSettings::default()
+        },
+        Vector::new(0.0, -G, 0.0),
+        FrictionLaw::Coulomb(MU),
     );
-    let joint = Mpc184Joint::revolute(Axis::Z, Vector::ZERO)
-        .with_friction(Friction::coulomb(MU, [Some(0.05), Some(RI), None]));
-    let id = world.insert_joint(None, Some(b), joint).unwrap();
     world
         .set_load(id, Dof::RotZ, DriveProfile::constant(moment))
         .unwrap();

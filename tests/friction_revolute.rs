@@ -21,6 +21,8 @@
 use rapier3d_mpc184::math::rapier::prelude::{MassProperties, RigidBodyBuilder};
 use rapier3d_mpc184::prelude::*;
 
+mod common;
+
 const M: Real = 2.0;
 const I: Real = 0.1;
 const MU: Real = 0.2;
@@ -28,17 +30,8 @@ const RO: Real = 0.05;
 const RI: Real = 0.03;
 
 fn wheel(gravity: Vector, moment: Real, law: FrictionLaw) -> (Mpc184World, JointId) {
-    let mut world = Mpc184World::new(WorldSettings::default());
-    world.physics.gravity = gravity;
-    let b = world.physics.bodies.insert(
-        RigidBodyBuilder::dynamic()
-            .additional_mass_properties(MassProperties::new(Vector::ZERO, M, Vector::splat(I)))
-            .can_sleep(false),
-    );
-    let mut fr = Friction::coulomb(MU, [Some(RO), Some(RI), None]);
-    fr.law = law;
-    let joint = Mpc184Joint::revolute(Axis::Z, Vector::ZERO).with_friction(fr);
-    let id = world.insert_joint(None, Some(b), joint).unwrap();
+    // The wheel's constants above are those of `common::friction_wheel`.
+    let (mut world, id) = common::friction_wheel(WorldSettings::default(), gravity, law);
     world
         .set_load(id, Dof::RotZ, DriveProfile::constant(moment))
         .unwrap();

@@ -134,3 +134,26 @@ pub fn lock_wheel(settings: WorldSettings, moment: Real) -> (Mpc184World, JointI
         .unwrap();
     (world, id)
 }
+
+/// The friction wheel of `tests/friction_revolute.rs`: 2 kg with isotropic inertia 0.1 kg m^2,
+/// its centre on a grounded revolute z with joint friction `law` (`SECJOINT,FRIC` radii:
+/// `R_outer` = 0.05 m, `R_inner` = 0.03 m), under `gravity`; no load yet.
+#[allow(dead_code, reason = "only the friction tests use it")]
+pub fn friction_wheel(
+    settings: WorldSettings,
+    gravity: Vector,
+    law: FrictionLaw,
+) -> (Mpc184World, JointId) {
+    let mut world = Mpc184World::new(settings);
+    world.physics.gravity = gravity;
+    let b = world.physics.bodies.insert(
+        RigidBodyBuilder::dynamic()
+            .additional_mass_properties(MassProperties::new(Vector::ZERO, 2.0, Vector::splat(0.1)))
+            .can_sleep(false),
+    );
+    let mut fr = Friction::coulomb(0.2, [Some(0.05), Some(0.03), None]);
+    fr.law = law;
+    let joint = Mpc184Joint::revolute(Axis::Z, Vector::ZERO).with_friction(fr);
+    let id = world.insert_joint(None, Some(b), joint).unwrap();
+    (world, id)
+}
