@@ -154,6 +154,15 @@ impl JointBackend {
         }
     }
 
+    /// Position projections of the last step that did not converge by chord iterations alone
+    /// (see [`LagrangeDiagnostics::projection_fallbacks`]; the Rapier backends: 0).
+    pub(crate) fn projection_fallbacks(&self) -> usize {
+        match self {
+            JointBackend::Lagrange(l) => l.diagnostics().projection_fallbacks,
+            _ => 0,
+        }
+    }
+
     /// `Ok` if the backend does `what`, else [`Error::Unsupported`] saying which backend does.
     pub(crate) fn require(&self, what: Capability) -> Result<(), Error> {
         match self {

@@ -1,5 +1,7 @@
 //! The adaptive step control ([`StepControl::Adaptive`](crate::settings::StepControl::Adaptive), ANSYS `AUTOTS`): step doubling on the
-//! smooth stretches, and each event located by bisection and taken in a substep of its own.
+//! smooth stretches, and each event located by bisection and taken in a substep of its own; a
+//! run whose position projection fell back to Gauss-Newton (a singular pose) is cut like an
+//! estimate over the tolerance.
 //!
 //! A step of `dt` is walked in segments. A segment runs from the current time to the step's
 //! end by step doubling (the `n` and `2 n` runs from the segment's start, the segment
@@ -286,7 +288,12 @@ impl Mpc184World {
                     reason: "the step-doubling error estimate is not finite".into(),
                 });
             }
-            let met = estimate <= c.tolerance && energy <= c.energy_tolerance;
+            // A projection that fell back to Gauss-Newton (near a singular pose) is not the
+            // integrator's: its error is not in the estimate (both runs can share it), so the
+            // step is cut until the fine run converges by chord iterations, as ANSYS bisects on
+            // a convergence failure.
+            let converged = self.backend.projection_fallbacks() == 0;
+            let met = estimate <= c.tolerance && energy <= c.energy_tolerance && converged;
             if met || 2 * n >= c.max {
                 self.note_substep(span / (2 * m) as Real);
                 let stats = &mut self.core.stats;

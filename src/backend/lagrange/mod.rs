@@ -157,6 +157,13 @@ pub struct LagrangeDiagnostics {
     pub projection_residual: Real,
     /// Chord iterations of the last substep's position projection.
     pub projection_iterations: usize,
+    /// Position projections in the last step that did not converge by chord iterations alone:
+    /// a chord step raised the residual (near a singular pose) and the projection went on as
+    /// damped Gauss-Newton, or the iteration limit stopped it. Such a projection is not the
+    /// mass-orthogonal one, and its error does not shrink with the substep the way the
+    /// integrator's does: the adaptive step control cuts the substep until none is left
+    /// (ANSYS bisects a step on a convergence failure the same way).
+    pub projection_fallbacks: usize,
     /// Bodies that received added (geometric-stiffness) inertia in the last substep.
     pub stiffened_bodies: usize,
     /// Bodies integrated by the first-order step in the last step although the world asked for
@@ -184,6 +191,7 @@ impl LagrangeDiagnostics {
         redundant_rows: 0,
         projection_residual: 0.0,
         projection_iterations: 0,
+        projection_fallbacks: 0,
         stiffened_bodies: 0,
         first_order_bodies: 0,
         second_order_bodies: 0,
@@ -219,6 +227,7 @@ struct IslandReport {
     redundant_rows: usize,
     projection_residual: Real,
     projection_iterations: usize,
+    projection_fallbacks: usize,
     stiffened_bodies: usize,
     first_order_bodies: usize,
     second_order_bodies: usize,
@@ -436,6 +445,7 @@ impl LagrangeBackend {
         d.redundant_rows = 0;
         d.projection_residual = 0.0;
         d.projection_iterations = 0;
+        d.projection_fallbacks = 0;
         d.stiffened_bodies = 0;
         d.first_order_bodies = 0;
         d.second_order_bodies = 0;
@@ -445,6 +455,7 @@ impl LagrangeBackend {
             d.redundant_rows += r.redundant_rows;
             d.projection_residual = d.projection_residual.max(r.projection_residual);
             d.projection_iterations = d.projection_iterations.max(r.projection_iterations);
+            d.projection_fallbacks += r.projection_fallbacks;
             d.stiffened_bodies += r.stiffened_bodies;
             d.first_order_bodies += r.first_order_bodies;
             d.second_order_bodies += r.second_order_bodies;

@@ -64,6 +64,9 @@ impl Island {
         }
         self.reg_scale = 1.0;
         self.report.projection_iterations = iterations;
+        if newton || iterations == MAX_PROJECTION_ITERATIONS {
+            self.report.projection_fallbacks += 1;
+        }
         self.report.projection_residual = self.report.projection_residual.max(residual);
         if residual > 1e3 * tol {
             self.warn(
