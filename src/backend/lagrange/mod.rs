@@ -318,6 +318,11 @@ pub(crate) struct Island {
     /// The island takes the fourth-order composition of RATTLE substeps in the current step
     /// ([`Integrator::Composition4`](crate::settings::Integrator::Composition4)).
     composed: bool,
+    /// The island integrates its bodies itself in the current step (`integrates_alone`): its
+    /// second-order bodies with unequal principal moments drift as free rotors
+    /// ([`free_rotor`]), with no gyroscopic term in their kicks. Set at each step's start.
+    #[cfg_attr(feature = "serde-snapshot", serde(skip))]
+    rotor: bool,
     /// A composed substep found a body that the geometric-stiffness added inertia would have
     /// stiffened: the island takes RATTLE from the next step on.
     would_stiffen: bool,
@@ -678,6 +683,27 @@ fn gyroscopic_kick(s: &BodyState, w: Vector, dt: Real) -> Vector {
         wg = w - s.inertia_inv * wm.cross(s.inertia * wm) * dt;
     }
     wg
+}
+
+/// The torque-free rotation over `h` of a body with world angular momentum `l` (kept
+/// exactly), by the symmetric splitting of Dullweber, Leimkuhler and McLachlan (Journal of
+/// Chemical Physics 107, 1997) into exact turns about the principal axes, `R1(h/2) R2(h/2) R3(h) R2(h/2)
+/// R1(h/2)`: second order, time-reversible and symplectic, keeping the rotational energy
+/// exactly too. Returns the body's rotation at the end.
+fn free_rotor(s: &BodyState, l: Vector, h: Real) -> Rotation {
+    // Principal frame to world, and the angular momentum in the principal frame.
+    let mut r = s.pose.rotation * s.principal_frame;
+    let mut pi = r.inverse() * l;
+    for (k, part) in [(0, 0.5), (1, 0.5), (2, 1.0), (1, 0.5), (0, 0.5)] {
+        let mut axis = Vector::ZERO;
+        axis[k] = 1.0;
+        // About principal axis k the body turns at `pi_k / I_k`; `pi_k` stays, the other
+        // components turn the other way in the body.
+        let turn = Rotation::from_axis_angle(axis, part * h * pi[k] * s.principal_inv[k]);
+        r *= turn;
+        pi = turn.inverse() * pi;
+    }
+    (r * s.principal_frame.inverse()).normalize()
 }
 
 /// The factor on `w` that makes Rapier's linearised quaternion update

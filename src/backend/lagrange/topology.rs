@@ -294,6 +294,7 @@ impl Island {
     /// depends on the stage size) and needed no added inertia. Otherwise its bodies take
     /// RATTLE, counted in the report.
     pub(super) fn choose_composition(&mut self, integrator: Integrator, alone: bool) {
+        self.rotor = alone;
         let asked = integrator == Integrator::Composition4;
         self.composed = asked
             && alone
