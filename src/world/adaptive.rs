@@ -1,7 +1,7 @@
 //! The adaptive step control ([`StepControl::Adaptive`](crate::settings::StepControl::Adaptive), ANSYS `AUTOTS`): step doubling on the
 //! smooth stretches, and each event located by bisection and taken in a substep of its own; a
-//! run whose position projection fell back to Gauss-Newton (a singular pose) is cut like an
-//! estimate over the tolerance.
+//! run whose position projection fell back to Gauss-Newton (a singular pose), and a run that
+//! diverged, are cut like an estimate over the tolerance.
 //!
 //! A step of `dt` is walked in segments. A segment runs from the current time to the step's
 //! end by step doubling (the `n` and `2 n` runs from the segment's start, the segment
@@ -249,7 +249,10 @@ impl Mpc184World {
             let (coarse, coarse_ledger) = match reuse.take() {
                 Some(kept) => kept,
                 None => {
-                    self.run_part(span, m)?;
+                    if let Err(e) = self.run_part(span, m) {
+                        self.cut_after_divergence(e, span, c, &mut n, &mut m)?;
+                        continue;
+                    }
                     if self.event_seen(watch) {
                         return Ok(Outcome::Event(span / (2 * m) as Real));
                     }
@@ -258,7 +261,10 @@ impl Mpc184World {
                     run
                 }
             };
-            self.run_part(span, 2 * m)?;
+            if let Err(e) = self.run_part(span, 2 * m) {
+                self.cut_after_divergence(e, span, c, &mut n, &mut m)?;
+                continue;
+            }
             if self.event_seen(watch) {
                 return Ok(Outcome::Event(span / (2 * m) as Real));
             }
@@ -328,6 +334,33 @@ impl Mpc184World {
             }
             n = doubled;
         }
+    }
+
+    /// A run of the doubling that diverged (a blow-up, or a joint turned past its bound in one
+    /// step: a substep too long for the motion) is cut like an estimate over the tolerance, as
+    /// ANSYS bisects a step that does not converge: the world goes back to the segment's start
+    /// and `n` doubles. Any other error, or a divergence that `max_substeps` leaves no room to
+    /// cut, stops the step (the world keeps its last good state, as after a fixed step).
+    fn cut_after_divergence(
+        &mut self,
+        error: Error,
+        span: Real,
+        c: &Control,
+        n: &mut usize,
+        m: &mut usize,
+    ) -> Result<(), Error> {
+        let Error::Diverged { joint, .. } = error else {
+            return Err(error);
+        };
+        if 2 * *n > c.max / 2 {
+            return Err(error);
+        }
+        self.restore_segment();
+        self.core.stats.rejected += 1;
+        self.core.stats.last_cut = Some((self.time(), joint));
+        *n *= 2;
+        *m = substeps_for(span, c.dt, *n);
+        Ok(())
     }
 
     /// Bisects the event that a run over `span` from the segment's start showed (see the
