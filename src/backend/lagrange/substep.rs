@@ -197,7 +197,7 @@ impl Island {
             let rotor = self.rotor && self.second[i] && !self.st[i].isotropic();
             let s = &mut self.st[i];
             let com = s.pose.translation + s.pose.rotation * s.local_com;
-            let momentum = s.inertia * w;
+            let momentum = if rotor { s.inertia * w } else { Vector::ZERO };
             let rotation = if rotor {
                 free_rotor(s, momentum, h)
             } else {
