@@ -127,9 +127,13 @@ pub enum Integrator {
     SymplecticEuler,
     /// RATTLE: a half kick with the forces at `q_n` and the constraint impulses, a drift that
     /// lands on the position constraints (the rotation by exactly `|w| h`), a second half kick
-    /// with the forces at `q_(n+1)` that lands on the velocity constraints. Second order; the
-    /// gyroscopic term by the implicit midpoint rule on each half; stops by an energy-consistent
-    /// impact.
+    /// with the forces at `q_(n+1)` that lands on the velocity constraints. Second order; stops
+    /// by an energy-consistent impact. On islands that integrate their bodies themselves (no
+    /// collider, kinematic body or multibody in the world), a body with unequal principal
+    /// moments drifts as a free rotor (its angular momentum kept, by the splitting of
+    /// Dullweber, Leimkuhler and McLachlan) and its kicks have no gyroscopic term; elsewhere
+    /// the drift holds `w` and each half kick takes the gyroscopic term by the implicit
+    /// midpoint rule, which is first order on a tumbling jointed body.
     Rattle,
     /// A symmetric composition of RATTLE substeps (Suzuki's fractal, 5 stages of `p h, p h,
     /// (1 - 4p) h, p h, p h` with `p = 1 / (4 - 4^(1/3))`, the middle one negative):
