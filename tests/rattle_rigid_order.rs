@@ -20,7 +20,7 @@
 //!    4.4e-7 m, ratios 4.00, 4.01 (before: 5.1e-4, 2.5e-4, 1.2e-4 m, ratios 2.04, 2.07); a
 //!    ratio above 3.5 is second order (first order cannot exceed 2.1 here).
 //! 2. The IFToMM A04 Bricard mechanism, 2 s at dt 1/30: the composition at x64 and x128
-//!    against x256. Measured 1.3e-10 and 5.5e-11 m (before 1.9e-5 and 6.4e-6 m: shrinking
+//!    against x256. Measured 1.2e-10 and 5.5e-11 m (before 1.9e-5 and 6.4e-6 m: shrinking
 //!    threefold, first order); at most 1e-8 m, and no larger at x128.
 #![cfg(feature = "f64")]
 

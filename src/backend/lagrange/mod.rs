@@ -689,11 +689,33 @@ fn gyroscopic_kick(s: &BodyState, w: Vector, dt: Real) -> Vector {
 /// exactly), by the symmetric splitting of Dullweber, Leimkuhler and McLachlan (Journal of
 /// Chemical Physics 107, 1997) into exact turns about the principal axes, `R1(h/2) R2(h/2) R3(h) R2(h/2)
 /// R1(h/2)`: second order, time-reversible and symplectic, keeping the rotational energy
-/// exactly too. Returns the body's rotation at the end.
+/// exactly too; a body with two equal moments (a symmetric top) turns in closed form. Returns
+/// the body's rotation at the end.
 fn free_rotor(s: &BodyState, l: Vector, h: Real) -> Rotation {
     // Principal frame to world, and the angular momentum in the principal frame.
     let mut r = s.pose.rotation * s.principal_frame;
     let mut pi = r.inverse() * l;
+    let p = s.principal;
+    let symmetric = if p.y == p.z {
+        Some(0)
+    } else if p.x == p.z {
+        Some(1)
+    } else if p.x == p.y {
+        Some(2)
+    } else {
+        None
+    };
+    if let Some(k) = symmetric {
+        // A symmetric top (a rod, a square brick, a cylinder) in closed form: it turns about
+        // `l` at `|l| / I_t` in the world and about its symmetry axis at `pi_k (1 / I_k -
+        // 1 / I_t)` in the body, both exactly.
+        let inv_t = s.principal_inv[(k + 1) % 3];
+        let mut axis = Vector::ZERO;
+        axis[k] = 1.0;
+        let world = Rotation::from_scaled_axis(l * (h * inv_t));
+        let body = Rotation::from_axis_angle(axis, h * pi[k] * (s.principal_inv[k] - inv_t));
+        return (world * r * body * s.principal_frame.inverse()).normalize();
+    }
     for (k, part) in [(0, 0.5), (1, 0.5), (2, 1.0), (1, 0.5), (0, 0.5)] {
         let mut axis = Vector::ZERO;
         axis[k] = 1.0;
