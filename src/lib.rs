@@ -121,6 +121,6 @@ pub mod prelude {
     pub use crate::snapshot::Snapshot;
     pub use crate::spring::{SpringDamper, SpringId, SpringOutput};
     pub use crate::world::{
-        DriveLevel, DriveProfile, EventKind, Mpc184World, StepEvent, StepStats,
+        CutReason, DriveLevel, DriveProfile, EventKind, Mpc184World, StepEvent, StepStats,
     };
 }

@@ -26,7 +26,7 @@ use crate::spring::{SpringDamper, SpringEntry, SpringId, SpringOutput, SpringSet
 use crate::statics::{StaticReport, StaticState};
 
 mod adaptive;
-pub use adaptive::{EventKind, StepEvent};
+pub use adaptive::{CutReason, EventKind, StepEvent};
 
 /// Everything of a world but Rapier's physics and the backend's solver state: settings,
 /// joints, progress. One value, so that the snapshot serialises it whole (no field can be
@@ -81,6 +81,8 @@ pub struct StepStats {
     /// joints). An event (a stop's impact, a lock engaging, a stick/slip change) shows here:
     /// its velocity jump is part of the estimate.
     pub last_cut: Option<(Real, Option<JointId>)>,
+    /// Why that step was cut (`None`: no cut yet).
+    pub last_cut_reason: Option<CutReason>,
     /// Events located so far (each taken in a substep of its own, see
     /// [`StepControl::Adaptive`]).
     pub events: u64,

@@ -633,7 +633,16 @@ fn autots_summary(model: &DeckModel, stats: &StepStats) -> String {
             let element = joint
                 .and_then(|id| model.deck_joint(id))
                 .map_or_else(String::new, |j| format!(", at joint element {}", j.element));
-            format!("; last cut in the step from t = {t:.6} s{element}")
+            let why = match stats.last_cut_reason {
+                Some(CutReason::Estimate) => " (error estimate over the tolerance)",
+                Some(CutReason::Energy) => " (energy difference over the tolerance)",
+                Some(CutReason::Projection) => {
+                    " (position projection not converged: a singular pose)"
+                }
+                Some(CutReason::Divergence) => " (a run diverged)",
+                None => "",
+            };
+            format!("; last cut in the step from t = {t:.6} s{element}{why}")
         }
         None => String::new(),
     };

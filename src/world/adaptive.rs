@@ -70,6 +70,27 @@ pub enum EventKind {
     StickSlip,
 }
 
+/// Why the adaptive control last took a try again with more substeps
+/// ([`StepStats::last_cut_reason`](crate::world::StepStats::last_cut_reason)).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(
+    feature = "serde-snapshot",
+    derive(serde::Serialize, serde::Deserialize)
+)]
+pub enum CutReason {
+    /// The error estimate (position, rotation and velocity differences of the two runs) was
+    /// over `tolerance`.
+    Estimate,
+    /// The two runs booked dissipated energy or work that differed by more than
+    /// `energy_tolerance`.
+    Energy,
+    /// A position projection did not converge by chord iterations (it fell back to damped
+    /// Gauss-Newton near a singular pose, or hit its iteration limit).
+    Projection,
+    /// A run diverged (a blow-up, or a joint turned past its bound in one step).
+    Divergence,
+}
+
 /// An event located by the adaptive control (see the module docs).
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(
@@ -324,6 +345,13 @@ impl Mpc184World {
             let fine = (self.dynamic_states(), ledger);
             self.restore_segment();
             self.core.stats.last_cut = Some((self.time(), joint));
+            self.core.stats.last_cut_reason = Some(if !converged {
+                CutReason::Projection
+            } else if estimate > c.tolerance {
+                CutReason::Estimate
+            } else {
+                CutReason::Energy
+            });
             // Twice the substeps, at most `max` per `dt` in the kept run.
             let doubled = (2 * n).min(c.max / 2);
             if doubled == 2 * n {
@@ -358,6 +386,7 @@ impl Mpc184World {
         self.restore_segment();
         self.core.stats.rejected += 1;
         self.core.stats.last_cut = Some((self.time(), joint));
+        self.core.stats.last_cut_reason = Some(CutReason::Divergence);
         *n *= 2;
         *m = substeps_for(span, c.dt, *n);
         Ok(())
