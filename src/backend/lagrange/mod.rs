@@ -353,6 +353,13 @@ pub(crate) struct Island {
 }
 
 impl Island {
+    /// Body `i` drifts as a free rotor in the current step ([`free_rotor`]; see
+    /// `Island::drift`): the island integrates its bodies itself, the body takes the
+    /// second-order step and its principal moments are not all equal.
+    fn drifts_as_rotor(&self, i: usize) -> bool {
+        self.rotor && self.second[i] && !self.st[i].isotropic()
+    }
+
     /// The row range of KKT block `k`.
     fn block_rows(&self, k: usize) -> Option<core::ops::Range<usize>> {
         let kkt = self.kkt.as_ref()?;
@@ -710,22 +717,29 @@ fn free_rotor(s: &BodyState, l: Vector, h: Real) -> Rotation {
         // `l` at `|l| / I_t` in the world and about its symmetry axis at `pi_k (1 / I_k -
         // 1 / I_t)` in the body, both exactly.
         let inv_t = s.principal_inv[(k + 1) % 3];
-        let mut axis = Vector::ZERO;
-        axis[k] = 1.0;
         let world = Rotation::from_scaled_axis(l * (h * inv_t));
-        let body = Rotation::from_axis_angle(axis, h * pi[k] * (s.principal_inv[k] - inv_t));
+        let spin = h * pi[k] * (s.principal_inv[k] - inv_t);
+        let body = Rotation::from_axis_angle(Vector::AXES[k], spin);
         return (world * r * body * s.principal_frame.inverse()).normalize();
     }
     for (k, part) in [(0, 0.5), (1, 0.5), (2, 1.0), (1, 0.5), (0, 0.5)] {
-        let mut axis = Vector::ZERO;
-        axis[k] = 1.0;
         // About principal axis k the body turns at `pi_k / I_k`; `pi_k` stays, the other
         // components turn the other way in the body.
-        let turn = Rotation::from_axis_angle(axis, part * h * pi[k] * s.principal_inv[k]);
+        let angle = part * h * pi[k] * s.principal_inv[k];
+        let turn = Rotation::from_axis_angle(Vector::AXES[k], angle);
         r *= turn;
         pi = turn.inverse() * pi;
     }
     (r * s.principal_frame.inverse()).normalize()
+}
+
+/// The angular 3x3 block of a body's 6x6 mass block (row-major, linear then angular).
+fn angular_block(m: &[Real; 36]) -> Matrix {
+    Matrix::from_cols(
+        Vector::new(m[21], m[27], m[33]),
+        Vector::new(m[22], m[28], m[34]),
+        Vector::new(m[23], m[29], m[35]),
+    )
 }
 
 /// The factor on `w` that makes Rapier's linearised quaternion update

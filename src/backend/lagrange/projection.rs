@@ -6,12 +6,12 @@
 use crate::error::Error;
 use crate::joint_set::JointSet;
 use crate::math::rapier::dynamics::RigidBodySet;
-use crate::math::{Matrix, Real, Vector};
+use crate::math::{Real, Vector};
 use crate::solver::kkt::JAC_ROW_STRIDE;
 
 use super::assemble::Eval;
 use super::{
-    Island, MAX_PROJECTION_ITERATIONS, WARM_START_LIMIT, Warning, displace, kkt_err,
+    Island, MAX_PROJECTION_ITERATIONS, WARM_START_LIMIT, Warning, angular_block, displace, kkt_err,
     projection_tolerance,
 };
 
@@ -84,14 +84,12 @@ impl Island {
         for i in 0..self.st.len() {
             let d = self.shift[i];
             let dth = Vector::new(d[3], d[4], d[5]);
-            let rotor = self.rotor && self.second[i] && !self.st[i].isotropic();
+            let rotor = self.drifts_as_rotor(i);
             let m = &self.mass[i];
             let s = &mut self.st[i];
             s.linvel += Vector::new(d[0], d[1], d[2]) / h;
             if rotor {
-                let row = |a: usize| Vector::new(m[6 * a + 3], m[6 * a + 4], m[6 * a + 5]);
-                let impulse = Vector::new(row(3).dot(dth), row(4).dot(dth), row(5).dot(dth)) / h;
-                let momentum = s.inertia * s.angvel + impulse;
+                let momentum = s.inertia * s.angvel + angular_block(m) * dth / h;
                 s.refresh_inertia();
                 s.angvel = s.inertia_inv * momentum;
             } else {
@@ -233,13 +231,7 @@ impl Island {
             // displacement along it feeds an `O(h^2)` error into the velocities every substep
             // (measured: RATTLE first order on a tumbling heavy top, its velocity error halving
             // with the substep; the first substep, not warm-started, was third order locally).
-            let m = &self.mass[i];
-            let ang = Matrix::from_cols(
-                Vector::new(m[21], m[27], m[33]),
-                Vector::new(m[22], m[28], m[34]),
-                Vector::new(m[23], m[29], m[35]),
-            )
-            .inverse();
+            let ang = angular_block(&self.mass[i]).inverse();
             let s = &mut self.st[i];
             let dx = Vector::new(g[0], g[1], g[2]) / s.mass;
             let dth = ang * Vector::new(g[3], g[4], g[5]);

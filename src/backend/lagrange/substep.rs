@@ -194,27 +194,26 @@ impl Island {
             let x = self.rhs_b[i];
             let v = Vector::new(x[0], x[1], x[2]);
             let w = Vector::new(x[3], x[4], x[5]);
-            let rotor = self.rotor && self.second[i] && !self.st[i].isotropic();
+            let rotor = self.drifts_as_rotor(i);
+            let second = self.second[i];
             let s = &mut self.st[i];
             let com = s.pose.translation + s.pose.rotation * s.local_com;
-            let momentum = if rotor { s.inertia * w } else { Vector::ZERO };
-            let rotation = if rotor {
-                free_rotor(s, momentum, h)
+            // The rotation, and the angular momentum a free rotor keeps.
+            let (rotation, momentum) = if rotor {
+                let l = s.inertia * w;
+                (free_rotor(s, l, h), Some(l))
             } else {
-                let spin = if self.second[i] {
-                    w * rotation_scale(w, h)
-                } else {
-                    w
-                };
+                let spin = if second { w * rotation_scale(w, h) } else { w };
                 let hang = spin * (h * 0.5);
-                (Rotation::from_xyzw(hang.x, hang.y, hang.z, 1.0) * s.pose.rotation).normalize()
+                let q = Rotation::from_xyzw(hang.x, hang.y, hang.z, 1.0) * s.pose.rotation;
+                (q.normalize(), None)
             };
             let com = com + v * h;
             s.pose = Pose::from_parts(com + rotation * (-s.local_com), rotation);
             s.com = s.pose * s.local_com;
             s.linvel = v;
             s.refresh_inertia();
-            s.angvel = if rotor { s.inertia_inv * momentum } else { w };
+            s.angvel = momentum.map_or(w, |l| s.inertia_inv * l);
         }
     }
 
@@ -362,7 +361,7 @@ impl Island {
             // free body exactly, where the explicit `-w x I w` gains energy every step
             // (measured: the IFToMM slider-crank gained 7 % of its energy scale per second
             // at h = 1/240 s). A free rotor's drift holds that term itself (see `drift`).
-            let w = if self.rotor && self.second[i] {
+            let w = if self.drifts_as_rotor(i) {
                 s.angvel
             } else {
                 gyroscopic_kick(s, s.angvel, ha)
@@ -494,7 +493,7 @@ impl Island {
             let (v, w) = if self.second[i] {
                 // The second half kick of RATTLE, with the forces at q_(n+1).
                 let hh = 0.5 * h;
-                let w = if self.rotor {
+                let w = if self.drifts_as_rotor(i) {
                     s.angvel
                 } else {
                     gyroscopic_kick(s, s.angvel, hh)
