@@ -14,25 +14,18 @@
 #![cfg(feature = "f64")]
 
 use rapier3d_mpc184::prelude::*;
-use rapier3d_mpc184::studies::benchmarks::{self, Benchmark, RodSliderJoint};
+use rapier3d_mpc184::studies::benchmarks::{self, Benchmark};
 
 const DT: Real = 1.0 / 30.0;
 
 fn slider_crank(substeps: usize) -> Benchmark {
-    let settings = WorldSettings {
+    benchmarks::slider_crank_idle_removed(WorldSettings {
         dt: DT,
         substeps,
         integrator: Integrator::Composition4,
         ..Default::default()
-    };
-    let mut b = benchmarks::slider_crank_with(settings, RodSliderJoint::Spherical).unwrap();
-    for mode in b.world.idle_modes() {
-        let rb = &mut b.world.physics.bodies[mode.body];
-        let w = rb.angvel();
-        rb.set_angvel(w - mode.axis * w.dot(mode.axis), true);
-    }
-    b.world.remove_idle_modes().unwrap();
-    b
+    })
+    .unwrap()
 }
 
 fn slider(b: &Benchmark) -> Vector {

@@ -236,33 +236,13 @@ impl Scene {
             Scene::A02 => benchmarks::four_bar_parallelogram(settings),
             Scene::A04 => benchmarks::bricard(settings),
             Scene::Chain => chain(settings, cfg.chain_links, 1000.0),
-            Scene::SliderCrank => slider_crank_without_spin(settings),
+            Scene::SliderCrank => benchmarks::slider_crank_idle_removed(settings),
             Scene::A03 => Err(rapier3d_mpc184::Error::Unsupported {
                 what: "A03 as a Benchmark".into(),
                 hint: "it runs from its deck in andrews.rs".into(),
             }),
         }
     }
-}
-
-/// The spatial slider-crank with a spherical rod-slider joint and its idle mode removed (the
-/// rod's spin about BC, `rapier3d_mpc184::idle`): the benchmark starts the rod spinning at
-/// 1.28 rad/s about BC, which is taken out of its initial angular velocity (it moves no joint
-/// point, so the start stays consistent, and the energy is taken again), and on the Lagrange
-/// backend a spin row holds it at zero; the Rapier backends cannot hold it, so there the spin
-/// starts at zero and is free. Every method and the reference run the same motion.
-fn slider_crank_without_spin(settings: WorldSettings) -> Result<Benchmark, rapier3d_mpc184::Error> {
-    let mut b = benchmarks::slider_crank_with(settings, RodSliderJoint::Spherical)?;
-    for mode in b.world.idle_modes() {
-        let rb = &mut b.world.physics.bodies[mode.body];
-        let w = rb.angvel();
-        rb.set_angvel(w - mode.axis * w.dot(mode.axis), true);
-    }
-    if settings.backend == Backend::Lagrange {
-        b.world.remove_idle_modes()?;
-    }
-    b.initial_energy = b.energy();
-    Ok(b)
 }
 
 /// Pendulum of A01 as a [`Benchmark`]: 1 kg bob (inertia 1e-4 kg m^2) 1 m from a revolute z

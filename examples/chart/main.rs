@@ -68,7 +68,7 @@ use std::time::Instant;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use rapier3d_mpc184::prelude::*;
-use rapier3d_mpc184::studies::benchmarks::{self, Benchmark, Probe, RodSliderJoint};
+use rapier3d_mpc184::studies::benchmarks::{self, Benchmark, Probe};
 use rapier3d_mpc184::studies::scenes::{self, G};
 
 #[path = "../common/mod.rs"]
