@@ -20,6 +20,7 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 use rapier3d_mpc184::prelude::*;
+use rapier3d_mpc184::studies::metrics::rk4_step;
 use rapier3d_mpc184::studies::scenes::{self, G};
 
 /// IFToMM A01 pendulum over 2000 s at high precision (1e-3 m)
@@ -138,12 +139,7 @@ fn run(integrator: Integrator, rate: u32, seconds: f64, target: f64) -> Result<O
         p.world.step()?;
         p.world.step()?;
         for _ in 0..64 {
-            let (k1t, k1o) = (om, f(th));
-            let (k2t, k2o) = (om + 0.5 * hr * k1o, f(th + 0.5 * hr * k1t));
-            let (k3t, k3o) = (om + 0.5 * hr * k2o, f(th + 0.5 * hr * k2t));
-            let (k4t, k4o) = (om + hr * k3o, f(th + hr * k3t));
-            th += hr / 6.0 * (k1t + 2.0 * k2t + 2.0 * k3t + k4t);
-            om += hr / 6.0 * (k1o + 2.0 * k2o + 2.0 * k3o + k4o);
+            (th, om) = rk4_step(f, th, om, hr);
         }
         let x = p.world.physics.bodies[p.bob].translation();
         let err = (x.x as f64 - th.sin())

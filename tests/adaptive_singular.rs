@@ -22,6 +22,7 @@
 
 use rapier3d_mpc184::prelude::*;
 use rapier3d_mpc184::studies::benchmarks;
+use rapier3d_mpc184::studies::metrics::rk4_step;
 
 const DT: Real = 1.0 / 30.0;
 const SECONDS: Real = 10.0;
@@ -46,12 +47,7 @@ fn exact_tips(steps: usize) -> Vec<Vector> {
     let mut tips = Vec::with_capacity(steps);
     for _ in 0..steps {
         for _ in 0..sub {
-            let (k1x, k1v) = (w, f(th));
-            let (k2x, k2v) = (w + 0.5 * h * k1v, f(th + 0.5 * h * k1x));
-            let (k3x, k3v) = (w + 0.5 * h * k2v, f(th + 0.5 * h * k2x));
-            let (k4x, k4v) = (w + h * k3v, f(th + h * k3x));
-            th += h / 6.0 * (k1x + 2.0 * k2x + 2.0 * k3x + k4x);
-            w += h / 6.0 * (k1v + 2.0 * k2v + 2.0 * k3v + k4v);
+            (th, w) = rk4_step(f, th, w, h);
         }
         tips.push(Vector::new(th.cos(), th.sin(), 0.0));
     }

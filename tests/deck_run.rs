@@ -21,7 +21,7 @@ use std::path::PathBuf;
 
 use rapier3d_mpc184::deck::{BuildOptions, DeckModel, parse_file, parse_str};
 use rapier3d_mpc184::prelude::*;
-use rapier3d_mpc184::studies::metrics::pendulum_period;
+use rapier3d_mpc184::studies::metrics::{pendulum_period, rk4_step};
 
 const G: f64 = 9.81;
 
@@ -58,14 +58,8 @@ fn pendulum_angle(theta0: f64, w2: f64, t: f64) -> f64 {
     let (mut th, mut om) = (theta0, 0.0);
     let n = (t / 1e-5).round() as usize;
     let h = t / n as f64;
-    let acc = |th: f64| -w2 * th.sin();
     for _ in 0..n {
-        let (k1t, k1o) = (om, acc(th));
-        let (k2t, k2o) = (om + 0.5 * h * k1o, acc(th + 0.5 * h * k1t));
-        let (k3t, k3o) = (om + 0.5 * h * k2o, acc(th + 0.5 * h * k2t));
-        let (k4t, k4o) = (om + h * k3o, acc(th + h * k3t));
-        th += h / 6.0 * (k1t + 2.0 * k2t + 2.0 * k3t + k4t);
-        om += h / 6.0 * (k1o + 2.0 * k2o + 2.0 * k3o + k4o);
+        (th, om) = rk4_step(|x| -w2 * x.sin(), th, om, h);
     }
     th
 }

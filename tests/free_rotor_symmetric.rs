@@ -20,38 +20,26 @@
 //! 3.5e-4 m at one substep and 5.5e-6 m at eight (measured), its own discretisation error.
 #![cfg(feature = "f64")]
 
-use rapier3d_mpc184::catalogue::JointKind;
+mod common;
+
 use rapier3d_mpc184::math::Rotation;
-use rapier3d_mpc184::math::rapier::dynamics::{MassProperties, RigidBodyBuilder};
 use rapier3d_mpc184::prelude::*;
 
 const DT: Real = 1.0 / 30.0;
 
 fn top(substeps: usize) -> Vector {
-    let mut world = Mpc184World::new(WorldSettings {
+    let settings = WorldSettings {
         dt: DT,
         substeps,
         integrator: Integrator::Rattle,
         ..Default::default()
-    });
-    world.physics.gravity = Vector::ZERO;
-    let body = world.physics.bodies.insert(
-        RigidBodyBuilder::dynamic()
-            .angvel(Vector::new(2.0, 1.5, 0.0))
-            .additional_mass_properties(MassProperties::new(
-                Vector::ZERO,
-                1.0,
-                Vector::new(0.3, 0.1, 0.1),
-            ))
-            .can_sleep(false),
+    };
+    let (mut world, body) = common::spherical_top(
+        settings,
+        Vector::ZERO,
+        Vector::new(2.0, 1.5, 0.0),
+        Vector::new(0.3, 0.1, 0.1),
     );
-    world
-        .insert_joint(
-            None,
-            Some(body),
-            Mpc184Joint::new(JointKind::Spherical, Vector::ZERO),
-        )
-        .unwrap();
     for _ in 0..60 {
         world.step().unwrap();
     }

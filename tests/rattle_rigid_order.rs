@@ -24,8 +24,8 @@
 //!    threefold, first order); at most 1e-8 m, and no larger at x128.
 #![cfg(feature = "f64")]
 
-use rapier3d_mpc184::catalogue::JointKind;
-use rapier3d_mpc184::math::rapier::dynamics::{MassProperties, RigidBodyBuilder};
+mod common;
+
 use rapier3d_mpc184::prelude::*;
 use rapier3d_mpc184::studies::benchmarks;
 
@@ -42,29 +42,12 @@ fn settings(substeps: usize, integrator: Integrator) -> WorldSettings {
 
 /// A body point of the tumbling heavy top after every step of 2 s, at `n` substeps.
 fn heavy_top(n: usize) -> Vec<Vector> {
-    let mut world = Mpc184World::new(settings(n, Integrator::Rattle));
-    world.physics.gravity = Vector::ZERO;
-    let (centre, w0) = (Vector::new(0.5, 0.0, 0.0), Vector::new(0.0, 1.0, 1.0));
-    let body = world.physics.bodies.insert(
-        RigidBodyBuilder::dynamic()
-            .translation(centre)
-            .angvel(w0)
-            // The pivot at the origin stays at rest: v = w x (centre - pivot).
-            .linvel(w0.cross(centre))
-            .additional_mass_properties(MassProperties::new(
-                Vector::ZERO,
-                1.0,
-                Vector::new(0.1, 0.2, 0.35),
-            ))
-            .can_sleep(false),
+    let (mut world, body) = common::spherical_top(
+        settings(n, Integrator::Rattle),
+        Vector::new(0.5, 0.0, 0.0),
+        Vector::new(0.0, 1.0, 1.0),
+        Vector::new(0.1, 0.2, 0.35),
     );
-    world
-        .insert_joint(
-            None,
-            Some(body),
-            Mpc184Joint::new(JointKind::Spherical, Vector::ZERO),
-        )
-        .unwrap();
     (0..60)
         .map(|_| {
             world.step().unwrap();

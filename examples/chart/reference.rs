@@ -2,6 +2,7 @@
 //! estimated from a second run at twice the step) for the others.
 
 use super::*;
+use rapier3d_mpc184::studies::metrics::rk4_step;
 
 /// A reference trajectory: the probe point at every output step (index 0 = time 0).
 pub(crate) struct Reference {
@@ -26,12 +27,7 @@ pub(crate) fn rk4_reference(
     let mut out = vec![pos(th)];
     for _ in 0..outputs {
         for _ in 0..per_output {
-            let (k1t, k1o) = (om, f(th));
-            let (k2t, k2o) = (om + 0.5 * h * k1o, f(th + 0.5 * h * k1t));
-            let (k3t, k3o) = (om + 0.5 * h * k2o, f(th + 0.5 * h * k2t));
-            let (k4t, k4o) = (om + h * k3o, f(th + h * k3t));
-            th += h / 6.0 * (k1t + 2.0 * k2t + 2.0 * k3t + k4t);
-            om += h / 6.0 * (k1o + 2.0 * k2o + 2.0 * k3o + k4o);
+            (th, om) = rk4_step(&f, th, om, h);
         }
         out.push(pos(th));
     }

@@ -27,18 +27,13 @@ use rapier3d_mpc184::studies::scenes;
 #[allow(dead_code, reason = "only the convergence tests use it")]
 pub fn pendulum_rk4(ip: Real, mgl: Real, theta0: Real, t: Real) -> (Real, Real) {
     let n = 20_000;
-    let h = t / n as Real;
-    let f = |th: Real| -mgl / ip * th.sin();
-    let (mut th, mut om) = (theta0, 0.0);
+    let h = t as f64 / n as f64;
+    let w2 = mgl as f64 / ip as f64;
+    let (mut th, mut om) = (theta0 as f64, 0.0);
     for _ in 0..n {
-        let (k1t, k1o) = (om, f(th));
-        let (k2t, k2o) = (om + 0.5 * h * k1o, f(th + 0.5 * h * k1t));
-        let (k3t, k3o) = (om + 0.5 * h * k2o, f(th + 0.5 * h * k2t));
-        let (k4t, k4o) = (om + h * k3o, f(th + h * k3t));
-        th += h / 6.0 * (k1t + 2.0 * k2t + 2.0 * k3t + k4t);
-        om += h / 6.0 * (k1o + 2.0 * k2o + 2.0 * k3o + k4o);
+        (th, om) = rk4_step(|x| -w2 * x.sin(), th, om, h);
     }
-    (th, om)
+    (th as Real, om as Real)
 }
 
 /// A01-type revolute pendulum (1 kg bob, 1 m, isotropic inertia 1e-4 kg m^2) released from
@@ -156,4 +151,33 @@ pub fn friction_wheel(
     let joint = Mpc184Joint::revolute(Axis::Z, Vector::ZERO).with_friction(fr);
     let id = world.insert_joint(None, Some(b), joint).unwrap();
     (world, id)
+}
+
+/// A top in zero gravity: a 1 kg body of principal moments `inertia` (kg m^2, along its own
+/// axes) centred at `centre`, on a spherical joint at the origin, spinning at `w0` from the
+/// identity orientation, its centre moving at `w0 x centre` so that the pivot stays at rest (a
+/// consistent start). Returns the world and the body.
+#[allow(dead_code, reason = "only the rigid-body rotation tests use it")]
+pub fn spherical_top(
+    settings: WorldSettings,
+    centre: Vector,
+    w0: Vector,
+    inertia: Vector,
+) -> (
+    Mpc184World,
+    rapier3d_mpc184::math::rapier::dynamics::RigidBodyHandle,
+) {
+    let mut world = Mpc184World::new(settings);
+    world.physics.gravity = Vector::ZERO;
+    let body = world.physics.bodies.insert(
+        RigidBodyBuilder::dynamic()
+            .translation(centre)
+            .angvel(w0)
+            .linvel(w0.cross(centre))
+            .additional_mass_properties(MassProperties::new(Vector::ZERO, 1.0, inertia))
+            .can_sleep(false),
+    );
+    let joint = Mpc184Joint::new(JointKind::Spherical, Vector::ZERO);
+    world.insert_joint(None, Some(body), joint).unwrap();
+    (world, body)
 }
