@@ -340,18 +340,17 @@ impl Mpc184World {
                 };
                 return Ok(Outcome::Kept(next));
             }
-            self.core.stats.rejected += 1;
             let joint = worst.and_then(|h| self.core.joints.attached_to(h).first().copied());
             let fine = (self.dynamic_states(), ledger);
             self.restore_segment();
-            self.core.stats.last_cut = Some((self.time(), joint));
-            self.core.stats.last_cut_reason = Some(if !converged {
+            let reason = if !converged {
                 CutReason::Projection
             } else if estimate > c.tolerance {
                 CutReason::Estimate
             } else {
                 CutReason::Energy
-            });
+            };
+            self.note_cut(joint, reason);
             // Twice the substeps, at most `max` per `dt` in the kept run.
             let doubled = (2 * n).min(c.max / 2);
             if doubled == 2 * n {
@@ -384,9 +383,7 @@ impl Mpc184World {
             return Err(error);
         }
         self.restore_segment();
-        self.core.stats.rejected += 1;
-        self.core.stats.last_cut = Some((self.time(), joint));
-        self.core.stats.last_cut_reason = Some(CutReason::Divergence);
+        self.note_cut(joint, CutReason::Divergence);
         *n *= 2;
         *m = substeps_for(span, c.dt, *n);
         Ok(())
@@ -499,6 +496,15 @@ impl Mpc184World {
             self.restore_segment();
         }
         seen
+    }
+
+    /// Counts a try taken again from the segment's start (the world is back there), with the
+    /// joint that cut it and why.
+    fn note_cut(&mut self, joint: Option<JointId>, reason: CutReason) {
+        let stats = &mut self.core.stats;
+        stats.rejected += 1;
+        stats.last_cut = Some((self.core.progress.time, joint));
+        stats.last_cut_reason = Some(reason);
     }
 
     /// Records a kept substep in the smallest and largest.
