@@ -492,8 +492,7 @@ impl Mpc184World {
                 continue;
             }
             let (v, w) = self.velocity_of(h);
-            e += 0.5 * rb.mass() * v.length_squared()
-                + 0.5 * w.dot(crate::body::world_inertia(rb) * w);
+            e += 0.5 * rb.mass() * v.length_squared() + crate::body::rotational_energy(rb, w);
         }
         e
     }

@@ -171,7 +171,7 @@ impl RapierBackend {
             }
             let (v, w) = self.velocity(sets.physics, *b);
             let p = (v - s.linvel) * m - s.force * h;
-            let l = crate::body::world_inertia(rb) * w - s.momentum - s.torque * h;
+            let l = crate::body::angular_momentum(rb, w) - s.momentum - s.torque * h;
             impulse[i] = [p.x, p.y, p.z, l.x, l.y, l.z];
         }
     }

@@ -277,8 +277,7 @@ impl RapierBackend {
             }
             let (v, w) = self.velocity(sets.physics, b);
             let weight = g * (rb.mass() * rb.gravity_scale());
-            total += 0.5 * rb.mass() * v.length_squared()
-                + 0.5 * w.dot(crate::body::world_inertia(rb) * w)
+            total += 0.5 * rb.mass() * v.length_squared() + crate::body::rotational_energy(rb, w)
                 - weight.dot(com(rb));
             power += weight.dot(v);
         }
