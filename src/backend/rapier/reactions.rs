@@ -2,8 +2,6 @@
 //! impulses over the recorded span (the step, or the multibody's last substep), split among the
 //! joints by momentum balance.
 
-use std::collections::HashMap;
-
 use crate::math::rapier::dynamics::RigidBodyHandle;
 use crate::math::{Pose, Real, Vector};
 use crate::rows::{FramePair, RowEval};
@@ -18,7 +16,10 @@ use super::RapierBackend;
 /// and faulted in again).
 #[derive(Default)]
 pub(crate) struct Scratch {
-    index: HashMap<RigidBodyHandle, usize>,
+    /// Per rigid-body arena slot: the body's place in the recorded starts (`NONE` if absent).
+    index: Vec<usize>,
+    /// Per recorded body: its pose and centre of mass halfway through the span.
+    mid: Vec<(Pose, Vector)>,
     mass: Vec<[Real; 36]>,
     impulse: Vec<[Real; 6]>,
     specs: Vec<JointBlockSpec>,
@@ -29,6 +30,27 @@ pub(crate) struct Scratch {
     mu: Vec<Real>,
     compliance: Vec<Real>,
     wrench: Vec<(Vector, Vector)>,
+}
+
+impl Scratch {
+    /// Each recorded body's place by its arena slot, and its pose halfway through the span.
+    fn place_bodies(
+        &mut self,
+        starts: &[(RigidBodyHandle, super::BodyStart)],
+        bodies: &crate::math::rapier::dynamics::RigidBodySet,
+    ) {
+        self.index.clear();
+        self.mid.clear();
+        for (i, (b, s)) in starts.iter().enumerate() {
+            let slot = b.into_raw_parts().0 as usize;
+            if self.index.len() <= slot {
+                self.index.resize(slot + 1, NONE);
+            }
+            self.index[slot] = i;
+            let now = crate::body::pose_and_com(&bodies[*b]);
+            self.mid.push(halfway((s.pose, s.com), now));
+        }
+    }
 }
 
 impl RapierBackend {
@@ -42,12 +64,10 @@ impl RapierBackend {
         }
         let starts = core::mem::take(&mut self.starts);
         let mut sc = core::mem::take(&mut self.scratch);
-        sc.index.clear();
-        sc.index
-            .extend(starts.iter().enumerate().map(|(i, (b, _))| (*b, i)));
+        sc.place_bodies(&starts, &sets.physics.bodies);
         self.body_blocks(sets, &starts, h, &mut sc);
+        self.rows_halfway(sets, &starts, h, &mut sc);
         let Scratch {
-            index,
             mass,
             impulse,
             specs,
@@ -57,47 +77,8 @@ impl RapierBackend {
             mu,
             compliance,
             wrench,
+            ..
         } = &mut sc;
-        // Rows halfway through the span: the constraint forces turn with the bodies over it.
-        specs.clear();
-        jac.clear();
-        owner.clear();
-        driven.clear();
-        let (t0, t1) = (self.span_start, self.span_start + h);
-        for (ji, e) in sets.joints.slots().iter().enumerate() {
-            let Some(e) = e else { continue };
-            if e.state.rows.is_empty() {
-                continue;
-            }
-            let pose_of = |b: RigidBodyHandle| {
-                let now = crate::body::pose_and_com(&sets.physics.bodies[b]);
-                match index.get(&b) {
-                    Some(&i) => halfway((starts[i].1.pose, starts[i].1.com), now),
-                    None => now,
-                }
-            };
-            let f = FramePair::at(&e.low, pose_of(e.body1), pose_of(e.body2));
-            specs.push(JointBlockSpec {
-                rows: e.state.rows.len(),
-                bodies: [index.get(&e.body1).copied(), index.get(&e.body2).copied()],
-            });
-            for r in &e.state.rows {
-                let ev = r.eval(&f);
-                driven.push(match r {
-                    crate::rows::RowKind::Drive { dof, .. } => e
-                        .drives
-                        .iter()
-                        .find(|d| d.dof == *dof)
-                        .map(|d| super::drives::mean_rate(d, t0, t1)),
-                    _ => None,
-                });
-                for half in [ev.j1, ev.j2] {
-                    jac.extend_from_slice(&[half[0].x, half[0].y, half[0].z]);
-                    jac.extend_from_slice(&[half[1].x, half[1].y, half[1].z]);
-                }
-                owner.push((ji, ev));
-            }
-        }
         // (J M^-1 J^T) mu = J M^-1 p: the KKT system with f = p, g = 0 and no compliance.
         mu.clear();
         mu.resize(owner.len(), 0.0);
@@ -143,6 +124,71 @@ impl RapierBackend {
         self.scratch = sc;
     }
 
+    /// Every joint's rows halfway through the span (the constraint forces turn with the bodies
+    /// over it) into the scratch's specs, Jacobian arena, owners and drive rates.
+    fn rows_halfway(
+        &self,
+        sets: &Sets,
+        starts: &[(RigidBodyHandle, super::BodyStart)],
+        h: Real,
+        sc: &mut Scratch,
+    ) {
+        let Scratch {
+            index,
+            mid,
+            specs,
+            jac,
+            owner,
+            driven,
+            ..
+        } = sc;
+        specs.clear();
+        jac.clear();
+        owner.clear();
+        driven.clear();
+        let (t0, t1) = (self.span_start, self.span_start + h);
+        for (ji, e) in sets.joints.slots().iter().enumerate() {
+            let Some(e) = e else { continue };
+            if e.state.rows.is_empty() {
+                continue;
+            }
+            let place = |b: RigidBodyHandle| {
+                (index.get(b.into_raw_parts().0 as usize).copied())
+                    .filter(|&i| i != NONE && starts[i].0 == b)
+            };
+            let places = [place(e.body1), place(e.body2)];
+            let pose_of = |b: RigidBodyHandle, i: Option<usize>| match i {
+                Some(i) => mid[i],
+                None => crate::body::pose_and_com(&sets.physics.bodies[b]),
+            };
+            let f = FramePair::at(
+                &e.low,
+                pose_of(e.body1, places[0]),
+                pose_of(e.body2, places[1]),
+            );
+            specs.push(JointBlockSpec {
+                rows: e.state.rows.len(),
+                bodies: places,
+            });
+            for r in &e.state.rows {
+                let ev = r.eval(&f);
+                driven.push(match r {
+                    crate::rows::RowKind::Drive { dof, .. } => e
+                        .drives
+                        .iter()
+                        .find(|d| d.dof == *dof)
+                        .map(|d| super::drives::mean_rate(d, t0, t1)),
+                    _ => None,
+                });
+                for half in [ev.j1, ev.j2] {
+                    jac.extend_from_slice(&[half[0].x, half[0].y, half[0].z]);
+                    jac.extend_from_slice(&[half[1].x, half[1].y, half[1].z]);
+                }
+                owner.push((ji, ev));
+            }
+        }
+    }
+
     /// Per recorded body: the mass block `M_b` and the constraint impulse over the span `h`,
     /// `p_b = m dv - h f` and `l_b = I_1 w_1 - I_0 w_0 - h tau` (angular momenta at the end and
     /// start poses), into the scratch's `mass` and `impulse`.
@@ -176,6 +222,9 @@ impl RapierBackend {
         }
     }
 }
+
+/// An arena slot with no recorded body (see `Scratch::index`).
+const NONE: usize = usize::MAX;
 
 /// The pose and centre of mass halfway between `a` and `b` (translation and centre of mass
 /// linearly, rotation by slerp).
