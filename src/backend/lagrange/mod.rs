@@ -93,9 +93,11 @@ const MU_HISTORY: usize = 3;
 /// The warm start extrapolates one order higher while each backward difference of the
 /// multipliers is below this fraction of the one before (see `Island::extrapolation_order`).
 /// Measured on the mixed scene (200 steps of 100 arms; the largest chord-step count of an island
-/// per step: 1 in 164 steps, 2 in 29, 3 in 4) and on the slider-crank's free and held idle spin
-/// (`tests/idle_modes.rs`: 1.8e-11 m apart at x64; 9.7e-11 m with 0.5, 6e-9 m with the cubic
-/// extrapolation always on, whose noise the spin amplifies).
+/// per step: 1 in 164 steps, 2 in 29, 3 in 4; with 0.02, 1 in 96 and 2 in 180) and on the
+/// slider-crank's free and held idle spin (`tests/idle_modes.rs`, x64: 1.3e-11 m apart; 1.8e-11
+/// to 9.7e-11 m with 0.1 to 0.5, 6e-9 m with the cubic extrapolation always on, whose noise the
+/// spin amplifies; the point-mass deck's 4.7e-9 m of `cli/tests/idle_modes_deck.rs` moves
+/// between 1.3e-9 and 4.7e-9 m with this factor).
 const SMOOTH: Real = 0.05;
 
 /// A warm start leaving a residual above this (m or rad) is undone.
