@@ -3,7 +3,7 @@
 
 use crate::math::rapier::dynamics::{LockedAxes, RigidBody, RigidBodyHandle, RigidBodySet};
 use crate::math::rapier::geometry::ColliderSet;
-use crate::math::{Matrix, Pose, Real, Vector};
+use crate::math::{Matrix, Pose, Real, Rotation, Vector};
 
 /// World inertia tensor of a body at its current pose (kg m^2).
 pub(crate) fn world_inertia(rb: &RigidBody) -> Matrix {
@@ -18,21 +18,30 @@ pub(crate) fn inertia_at(rb: &RigidBody, pose: &Pose) -> Matrix {
     r * Matrix::from_diagonal(ip) * r.transpose()
 }
 
+/// A body's principal axes in the world at its current pose and its principal moments
+/// (kg m^2): `I = q diag(moments) q^-1`.
+fn principal(rb: &RigidBody) -> (Rotation, Vector) {
+    let mp = &rb.mass_properties().local_mprops;
+    (
+        rb.position().rotation * mp.principal_inertia_local_frame,
+        mp.principal_inertia(),
+    )
+}
+
 /// A body's angular momentum `I w` about its centre of mass at its current pose (kg m^2/s), `w`
 /// in rad/s in the world frame: turned into the principal frame and back, without building
 /// the world inertia tensor ([`world_inertia`] costs two 3x3 products).
 pub(crate) fn angular_momentum(rb: &RigidBody, w: Vector) -> Vector {
-    let mp = &rb.mass_properties().local_mprops;
-    let q = rb.position().rotation * mp.principal_inertia_local_frame;
-    q * (mp.principal_inertia() * (q.inverse() * w))
+    let (q, moments) = principal(rb);
+    q * (moments * (q.inverse() * w))
 }
 
 /// A body's rotational kinetic energy `w . I w / 2` at its current pose (J), `w` in rad/s in
 /// the world frame (see [`angular_momentum`]).
 pub(crate) fn rotational_energy(rb: &RigidBody, w: Vector) -> Real {
-    let mp = &rb.mass_properties().local_mprops;
-    let wl = (rb.position().rotation * mp.principal_inertia_local_frame).inverse() * w;
-    0.5 * (mp.principal_inertia() * wl).dot(wl)
+    let (q, moments) = principal(rb);
+    let wl = q.inverse() * w;
+    0.5 * (moments * wl).dot(wl)
 }
 
 /// A body's pose and centre of mass, the pair [`crate::rows::FramePair::at`] takes.
@@ -82,12 +91,11 @@ pub(crate) fn mass_defect(rb: &RigidBody) -> Option<String> {
     None
 }
 
-/// Whether `rb`'s principal moments are equal to round-off (a sphere, a cube, a point mass
-/// given isotropic rotary inertia): its gyroscopic term `w x I w` is zero at every velocity.
-pub(crate) fn isotropic(rb: &RigidBody) -> bool {
-    let i = rb.mass_properties().local_mprops.principal_inertia();
-    let (lo, hi) = (i.min_element(), i.max_element());
-    hi - lo <= 4.0 * Real::EPSILON * hi
+/// Whether the principal moments `moments` are equal (a sphere, a cube, a point mass given
+/// isotropic rotary inertia): the inertia is the same about every axis and the gyroscopic term
+/// `w x I w` is zero at every velocity.
+pub(crate) fn isotropic(moments: Vector) -> bool {
+    moments.x == moments.y && moments.y == moments.z
 }
 
 /// Prepares a body that a joint now connects: its mass properties filled in now (Rapier does it

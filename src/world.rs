@@ -631,8 +631,8 @@ impl Mpc184World {
                     .filter(|(_, rb)| rb.is_dynamic())
                     .map(|(h, rb)| {
                         let (v, w) = self.velocity_of(h);
-                        let ke = rb.mass() * v.length_squared()
-                            + w.dot(crate::body::world_inertia(rb) * w);
+                        let ke = 0.5 * rb.mass() * v.length_squared()
+                            + crate::body::rotational_energy(rb, w);
                         (h, ke)
                     })
                     .max_by(|a, b| a.1.total_cmp(&b.1))

@@ -153,11 +153,9 @@ impl BodyState {
         self.inertia_inv = r * Matrix::from_diagonal(self.principal_inv) * r.transpose();
     }
 
-    /// The three principal moments are equal: the inertia is the same about every axis and
-    /// the gyroscopic torque `-w x I w` vanishes.
+    /// The three principal moments are equal (see [`crate::body::isotropic`]).
     fn isotropic(&self) -> bool {
-        let p = self.principal;
-        p.x == p.y && p.y == p.z
+        crate::body::isotropic(self.principal)
     }
 }
 

@@ -294,7 +294,8 @@ impl RapierBackend {
         if !self.multibody {
             for &b in &self.touched {
                 let rb = &mut sets.physics.bodies[b];
-                let gyroscopic = !crate::body::isotropic(rb);
+                let moments = rb.mass_properties().local_mprops.principal_inertia();
+                let gyroscopic = !crate::body::isotropic(moments);
                 rb.enable_gyroscopic_forces(gyroscopic);
             }
         }

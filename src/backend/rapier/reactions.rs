@@ -2,7 +2,7 @@
 //! impulses over the recorded span (the step, or the multibody's last substep), split among the
 //! joints by momentum balance.
 
-use crate::math::rapier::dynamics::RigidBodyHandle;
+use crate::math::rapier::dynamics::{RigidBodyHandle, RigidBodySet};
 use crate::math::{Pose, Real, Vector};
 use crate::rows::{FramePair, RowEval};
 use crate::solver::kkt::{JointBlockSpec, KktSolver};
@@ -37,7 +37,7 @@ impl Scratch {
     fn place_bodies(
         &mut self,
         starts: &[(RigidBodyHandle, super::BodyStart)],
-        bodies: &crate::math::rapier::dynamics::RigidBodySet,
+        bodies: &RigidBodySet,
     ) {
         self.index.clear();
         self.mid.clear();
