@@ -486,33 +486,34 @@ impl Mpc184World {
 
     /// Kinetic energy of all dynamic bodies (J).
     pub fn kinetic_energy(&self) -> Real {
-        let mut e = 0.0;
+        self.body_energies().0
+    }
+
+    /// Gravitational potential energy of all dynamic bodies, zero at the origin (J).
+    pub fn potential_energy(&self) -> Real {
+        self.body_energies().1
+    }
+
+    /// The kinetic and gravitational energies of all dynamic bodies (J), in one pass over the
+    /// bodies (the energy guard takes them twice per step).
+    fn body_energies(&self) -> (Real, Real) {
+        let g = self.physics.gravity;
+        let (mut kinetic, mut potential) = (0.0, 0.0);
         for (h, rb) in self.physics.bodies.iter() {
             if !rb.is_dynamic() {
                 continue;
             }
             let (v, w) = self.velocity_of(h);
-            e += 0.5 * rb.mass() * v.length_squared() + crate::body::rotational_energy(rb, w);
+            kinetic += 0.5 * rb.mass() * v.length_squared() + crate::body::rotational_energy(rb, w);
+            potential -= rb.mass() * rb.gravity_scale() * g.dot(rb.center_of_mass());
         }
-        e
-    }
-
-    /// Gravitational potential energy of all dynamic bodies, zero at the origin (J).
-    pub fn potential_energy(&self) -> Real {
-        let g = self.physics.gravity;
-        self.physics
-            .bodies
-            .iter()
-            .filter(|(_, rb)| rb.is_dynamic())
-            .map(|(_, rb)| -rb.mass() * rb.gravity_scale() * g.dot(rb.center_of_mass()))
-            .sum()
+        (kinetic, potential)
     }
 
     /// The energy balance now: kinetic, gravitational, spring, dissipated and the work of
     /// loads and drives (see [`EnergyReport`]).
     pub fn energy(&self) -> EnergyReport {
-        let kinetic = self.kinetic_energy();
-        let potential = self.potential_energy();
+        let (kinetic, potential) = self.body_energies();
         let spring: Real = self
             .core
             .joints
@@ -699,13 +700,13 @@ impl Mpc184World {
         let h = dt / n as Real;
         self.core.progress.last_h = h;
         let start = crate::work::StepStart::record(&self.physics.bodies);
+        let reactions = self.core.settings.outputs == Outputs::Full
+            || self.backend.needs_reactions(&mut self.core.joints);
         self.backend
-            .step(&mut self.core.sets(&mut self.physics), h, n)?;
+            .step(&mut self.core.sets(&mut self.physics), h, n, reactions)?;
         self.core.progress.time += dt;
         self.check_bodies_finite()?;
-        if self.core.settings.outputs == Outputs::Full
-            || self.backend.needs_reactions(&self.core.joints)
-        {
+        if reactions {
             self.backend
                 .write_reactions(&mut self.core.sets(&mut self.physics), h);
         }
@@ -841,8 +842,19 @@ impl Mpc184World {
 
     /// Refreshes every joint's output from the bodies now.
     fn refresh_outputs(&mut self) {
+        let roles = self.core.joints.roles();
+        // `roles.springs` is in joint order: merged with the loop.
+        let mut springs = roles.springs.iter().peekable();
+        let (physics, backend) = (&self.physics, &self.backend);
         for i in 0..self.core.joints.len() {
-            self.refresh_output(i);
+            let spring = springs.next_if_eq(&&i).is_some();
+            if let Some(e) = self.core.joints.get_mut(i) {
+                e.refresh_output(
+                    &physics.bodies,
+                    |h| backend.body_velocity(physics, h),
+                    spring,
+                );
+            }
         }
     }
 
@@ -850,7 +862,12 @@ impl Mpc184World {
     fn refresh_output(&mut self, i: usize) {
         let (physics, backend) = (&self.physics, &self.backend);
         if let Some(e) = self.core.joints.get_mut(i) {
-            e.refresh_output(&physics.bodies, |h| backend.body_velocity(physics, h));
+            let springs = e.joint.behaviour.has_forces();
+            e.refresh_output(
+                &physics.bodies,
+                |h| backend.body_velocity(physics, h),
+                springs,
+            );
         }
     }
 

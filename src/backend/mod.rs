@@ -245,8 +245,15 @@ impl JointBackend {
         }
     }
 
-    /// Advances the world by `n` substeps of `h`.
-    pub(crate) fn step(&mut self, sets: &mut Sets, h: Real, n: usize) -> Result<(), Error> {
+    /// Advances the world by `n` substeps of `h`; `reactions`: the reactions are written after
+    /// it (the Rapier backends record the bodies' start of the span only then).
+    pub(crate) fn step(
+        &mut self,
+        sets: &mut Sets,
+        h: Real,
+        n: usize,
+        reactions: bool,
+    ) -> Result<(), Error> {
         // One Rapier call per substep (the Rapier impulse backend sets its own: one per step).
         sets.physics.integration_parameters.dt = h;
         sets.physics.integration_parameters.num_solver_iterations = 1;
@@ -254,7 +261,7 @@ impl JointBackend {
             JointBackend::Lagrange(l) => l.step(sets, h, n),
             JointBackend::Rapier(r) => {
                 sets.joints.apply_pending_locks()?;
-                r.step(sets, h, n);
+                r.step(sets, h, n, reactions);
                 Ok(())
             }
         }
@@ -263,12 +270,13 @@ impl JointBackend {
     /// The step needs the reactions whatever the output level: on the Rapier backends a joint
     /// with friction (its normal force is the last reaction) or a drive (its work is booked
     /// from its reaction). The Lagrange backend takes both from its own multipliers.
-    pub(crate) fn needs_reactions(&self, joints: &JointSet) -> bool {
+    pub(crate) fn needs_reactions(&self, joints: &mut JointSet) -> bool {
         match self {
             JointBackend::Lagrange(_) => false,
-            JointBackend::Rapier(_) => joints
-                .iter()
-                .any(|e| e.joint.behaviour.friction.is_some() || !e.drives.is_empty()),
+            JointBackend::Rapier(_) => {
+                let roles = joints.roles();
+                !roles.friction.is_empty() || !roles.drives.is_empty()
+            }
         }
     }
 

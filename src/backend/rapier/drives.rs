@@ -34,13 +34,11 @@ pub(super) fn mean_rate(d: &Drive, t0: Real, t1: Real) -> Real {
 impl RapierBackend {
     /// Sets every drive's motor for the call over `[t0, t1]`.
     pub(super) fn drive_motors(&self, sets: &mut Sets, t0: Real, t1: Real) {
-        for slot in 0..sets.joints.slots().len() {
-            let Some(Some(e)) = sets.joints.slots().get(slot) else {
+        let roles = sets.joints.roles();
+        for &slot in &roles.drives {
+            let Some(e) = sets.joints.get(slot) else {
                 continue;
             };
-            if e.drives.is_empty() {
-                continue;
-            }
             let settings: Vec<(usize, Real)> = e
                 .drives
                 .iter()
@@ -59,13 +57,11 @@ impl RapierBackend {
 
     /// Puts every driven DOF on its drive's value and rate at `t` (the call's end).
     pub(super) fn drive_positions(&self, sets: &mut Sets, t: Real, span: Real) {
-        for slot in 0..sets.joints.slots().len() {
-            let Some(Some(e)) = sets.joints.slots().get(slot) else {
+        let roles = sets.joints.roles();
+        for &slot in &roles.drives {
+            let Some(e) = sets.joints.get(slot) else {
                 continue;
             };
-            if e.drives.is_empty() {
-                continue;
-            }
             let side = |b: RigidBodyHandle| crate::body::pose_and_com(&sets.physics.bodies[b]);
             let f = FramePair::at(&e.low, side(e.body1), side(e.body2));
             let o = &e.state.output;

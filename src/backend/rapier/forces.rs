@@ -93,12 +93,12 @@ impl RapierBackend {
         }
         let mut element = Vec::new();
         let mut motors = Vec::new();
-        for (ji, e) in sets.joints.slots().iter().enumerate() {
-            let Some(e) = e else { continue };
-            let b = &e.joint.behaviour;
-            if e.loads.is_empty() && !b.has_forces() {
+        let roles = sets.joints.roles();
+        for &ji in &roles.forces {
+            let Some(e) = sets.joints.get(ji) else {
                 continue;
-            }
+            };
+            let b = &e.joint.behaviour;
             let side = |b: RigidBodyHandle| crate::body::pose_and_com(&sets.physics.bodies[b]);
             let f = FramePair::at(&e.low, side(e.body1), side(e.body2));
             let o = &e.state.output;

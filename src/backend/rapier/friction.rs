@@ -23,8 +23,9 @@ pub(crate) fn fits(joint: &Mpc184Joint) -> bool {
 
 /// Sets each friction joint's motor for the coming step (see the module docs).
 pub(crate) fn set_motors(sets: &mut Sets) {
+    let roles = sets.joints.roles();
     let physics = &mut *sets.physics;
-    for e in sets.joints.iter() {
+    for e in roles.friction.iter().filter_map(|&j| sets.joints.get(j)) {
         let Some(fr) = &e.joint.behaviour.friction else {
             continue;
         };

@@ -227,8 +227,9 @@ impl RapierBackend {
 
     /// One step of `n` substeps of `h`: friction motors set from the last reactions, then one
     /// Rapier call (impulse: `dt = n h` with `n` solver iterations) or `n` (multibody: `dt = h`,
-    /// one iteration each).
-    pub(crate) fn step(&mut self, sets: &mut Sets, h: Real, n: usize) {
+    /// one iteration each). The start of the reactions' span is recorded only when they are
+    /// written after the step (`reactions`).
+    pub(crate) fn step(&mut self, sets: &mut Sets, h: Real, n: usize, reactions: bool) {
         if !self.started {
             self.started = true;
             if self.multibody {
@@ -242,7 +243,7 @@ impl RapierBackend {
             for s in 0..n {
                 let t0 = sets.time + s as Real * h;
                 let held = self.apply_forces(sets, h, 1, t0);
-                if s + 1 == n {
+                if reactions && s + 1 == n {
                     self.record(sets, h);
                     self.span_start = t0;
                 }
@@ -259,7 +260,9 @@ impl RapierBackend {
             p.dt = h * n as Real;
             p.num_solver_iterations = n;
             let held = self.apply_forces(sets, h * n as Real, n, sets.time);
-            self.record(sets, h * n as Real);
+            if reactions {
+                self.record(sets, h * n as Real);
+            }
             let approaches = self.approach(sets);
             let span = h * n as Real;
             self.span_start = sets.time;

@@ -32,8 +32,9 @@ impl RapierBackend {
     /// module docs).
     pub(super) fn couple_screws(&self, sets: &mut Sets) {
         sets.joints.update_row_references(&sets.physics.bodies);
-        for slot in 0..sets.joints.slots().len() {
-            let Some(Some(e)) = sets.joints.slots().get(slot) else {
+        let roles = sets.joints.roles();
+        for &slot in &roles.screws {
+            let Some(e) = sets.joints.get(slot) else {
                 continue;
             };
             let Some(screw) = e

@@ -83,12 +83,12 @@ impl RapierBackend {
     /// measure and its joint's energy at the start of the call.
     pub(super) fn approach(&self, sets: &mut Sets) -> Vec<Approach> {
         let mut out = Vec::new();
-        for (slot, e) in sets.joints.slots().iter().enumerate() {
-            let Some(e) = e else { continue };
-            let b = &e.joint.behaviour;
-            if b.stops.is_empty() && b.locks.is_empty() {
+        let roles = sets.joints.roles();
+        for &slot in &roles.limits {
+            let Some(e) = sets.joints.get(slot) else {
                 continue;
-            }
+            };
+            let b = &e.joint.behaviour;
             if let Some(data) = joint_data(sets.physics, &e.rapier) {
                 for s in &b.stops {
                     let k = s.dof.index();
