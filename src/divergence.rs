@@ -250,30 +250,23 @@ impl Bounds {
         ]
     }
 
-    /// Checks the joints' outputs after a step at `time` (see the module docs).
-    pub(crate) fn check(&self, joints: &JointSet, time: Real) -> Result<(), Error> {
-        let mut worst: Option<(usize, Real)> = None;
-        for (j, e) in joints.slots().iter().enumerate() {
-            let Some(e) = e else { continue };
-            let r = self
-                .ratios(&e.state.output)
-                .into_iter()
-                .fold(0.0, Real::max);
-            if r > 1.0 && worst.is_none_or(|(_, w)| r > w) {
-                worst = Some((j, r));
-            }
-        }
-        let Some((j, _)) = worst else {
-            return Ok(());
-        };
-        let Some(e) = joints.get(j) else {
-            return Ok(());
-        };
-        Err(Error::Diverged {
+    /// The largest of a joint's output measures over its bound (above 1: past it; infinite
+    /// for a non-finite output). The world takes it as it refreshes each output, and the
+    /// joint with the largest one over 1 fails the step ([`Bounds::error`]).
+    pub(crate) fn ratio(&self, o: &JointOutput) -> Real {
+        self.ratios(o).into_iter().fold(0.0, Real::max)
+    }
+
+    /// The divergence of joint `j`, whose output passed a bound after the step that ended at
+    /// `time` (see the module docs).
+    pub(crate) fn error(&self, joints: &JointSet, j: usize, time: Real) -> Error {
+        Error::Diverged {
             time,
             joint: Some(JointId(j as u32)),
-            reason: self.reason(&e.state.output),
-        })
+            reason: joints
+                .get(j)
+                .map_or_else(String::new, |e| self.reason(&e.state.output)),
+        }
     }
 
     /// Which bound a joint's output passed, in words.

@@ -19,7 +19,7 @@ use crate::catalogue::JointKind;
 use crate::dof::Dof;
 use crate::drive::{Drive, DriveLevel, DriveProfile};
 use crate::error::{Error, JointId};
-use crate::joint::Mpc184Joint;
+use crate::joint::{ConstraintMethod, Mpc184Joint};
 use crate::kinematics::{self, AngleUnwrap};
 use crate::math::rapier::dynamics::RigidBodySet;
 use crate::math::rapier::dynamics::{ImpulseJointHandle, MultibodyJointHandle, RigidBodyHandle};
@@ -165,17 +165,42 @@ pub(crate) struct Roles {
     pub(crate) screws: Vec<usize>,
     /// A screw or drive row (their unwrapping references move every step).
     pub(crate) references: Vec<usize>,
+    /// Per joint index: [`Roles::EFFECTS`], [`Roles::ELASTIC_STOPS`], [`Roles::REFERENCES`]
+    /// (0 for an empty slot), for the passes that go by island.
+    pub(crate) flags: Vec<u8>,
 }
 
 impl Roles {
+    /// Behaviour (stops, locks, springs, dampers, friction, reference values) or a load.
+    pub(crate) const EFFECTS: u8 = 1;
+    /// A stop that restores energy: Lagrange method, not a screw.
+    pub(crate) const ELASTIC_STOPS: u8 = 2;
+    /// A screw or drive row.
+    pub(crate) const REFERENCES: u8 = 4;
+
     fn of(entries: &[Option<JointEntry>]) -> Roles {
-        let mut roles = Roles::default();
+        let mut roles = Roles {
+            flags: vec![0; entries.len()],
+            ..Roles::default()
+        };
         for (j, e) in entries.iter().enumerate() {
             let Some(e) = e else { continue };
             let b = &e.joint.behaviour;
             let has = |f: fn(&RowKind) -> bool| e.state.rows.iter().any(f);
             let screw = has(|r| matches!(r, RowKind::Screw { .. }));
             let drive_row = has(|r| matches!(r, RowKind::Drive { .. }));
+            let elastic = !b.stops.is_empty()
+                && !matches!(e.joint.method, ConstraintMethod::Penalty { .. })
+                && !matches!(e.joint.kind, JointKind::Screw { .. });
+            for (bit, set) in [
+                (Roles::EFFECTS, !b.is_empty() || !e.loads.is_empty()),
+                (Roles::ELASTIC_STOPS, elastic),
+                (Roles::REFERENCES, screw || drive_row),
+            ] {
+                if set {
+                    roles.flags[j] |= bit;
+                }
+            }
             let lists = [
                 (&mut roles.forces, !e.loads.is_empty() || b.has_forces()),
                 (&mut roles.springs, b.has_forces()),
@@ -258,6 +283,25 @@ impl JointSet {
     pub(crate) fn touch(&mut self) {
         self.topology += 1;
         self.revision += 1;
+    }
+
+    /// The joints' spring energy at their last output (J): over the joints with springs when
+    /// the roles are listed for the joints as they are (the energy guard takes it twice per
+    /// step), else over all (the same sum: the others hold 0; from +0, so that no spring
+    /// gives +0 both ways, where `Sum` would give -0 for none).
+    pub(crate) fn spring_energy(&self) -> Real {
+        let energy = |e: &JointEntry| e.state.output.spring_energy;
+        let add = |a: Real, e: Real| a + e;
+        if self.roles_for == Some(self.revision) {
+            self.roles
+                .springs
+                .iter()
+                .filter_map(|&j| self.get(j))
+                .map(energy)
+                .fold(0.0, add)
+        } else {
+            self.iter().map(energy).fold(0.0, add)
+        }
     }
 
     /// The joints of each pass ([`Roles`]), listed again if anything they depend on changed

@@ -23,26 +23,29 @@ pub(crate) struct StepStart {
     /// Dynamic bodies with a user force or torque: the force, the torque, the centre of mass
     /// and the rotation at the start.
     forced: Vec<(RigidBodyHandle, Vector, Vector, Vector, Rotation)>,
+    /// Some body is kinematic (else no joint pushes: the joints are not visited).
+    kinematic: bool,
 }
 
 impl StepStart {
-    /// Records the forced bodies.
+    /// Records the forced bodies, and whether any body is kinematic.
     pub(crate) fn record(bodies: &RigidBodySet) -> StepStart {
-        let forced = bodies
-            .iter()
-            .filter(|(_, rb)| rb.is_dynamic())
-            .filter(|(_, rb)| rb.user_force() != Vector::ZERO || rb.user_torque() != Vector::ZERO)
-            .map(|(h, rb)| {
-                (
+        let mut start = StepStart::default();
+        for (h, rb) in bodies.iter() {
+            start.kinematic |= rb.is_kinematic();
+            if rb.is_dynamic()
+                && (rb.user_force() != Vector::ZERO || rb.user_torque() != Vector::ZERO)
+            {
+                start.forced.push((
                     h,
                     rb.user_force(),
                     rb.user_torque(),
                     rb.center_of_mass(),
                     rb.position().rotation,
-                )
-            })
-            .collect();
-        StepStart { forced }
+                ));
+            }
+        }
+        start
     }
 
     /// The work of the user forces over the step that ended now, plus the work of the
@@ -53,6 +56,9 @@ impl StepStart {
             let Some(rb) = bodies.get(h) else { continue };
             let turn = (rb.position().rotation * q0.inverse()).to_scaled_axis();
             w += f.dot(rb.center_of_mass() - c0) + tau.dot(turn);
+        }
+        if !self.kinematic {
+            return w;
         }
         for e in joints.iter() {
             let kinematic = [e.body1, e.body2].map(|b| bodies[b].is_kinematic());

@@ -514,13 +514,7 @@ impl Mpc184World {
     /// loads and drives (see [`EnergyReport`]).
     pub fn energy(&self) -> EnergyReport {
         let (kinetic, potential) = self.body_energies();
-        let spring: Real = self
-            .core
-            .joints
-            .iter()
-            .map(|e| e.state.output.spring_energy)
-            .sum::<Real>()
-            + self.spring_element_energy();
+        let spring = self.core.joints.spring_energy() + self.spring_element_energy();
         let ledger = self.core.progress.ledger;
         EnergyReport {
             kinetic,
@@ -710,9 +704,13 @@ impl Mpc184World {
             self.backend
                 .write_reactions(&mut self.core.sets(&mut self.physics), h);
         }
-        self.refresh_outputs();
+        let bounds = self.bounds();
+        let worst = self.refresh_outputs_within(Some(&bounds));
         self.core.progress.ledger.work += start.work(&self.physics.bodies, &self.core.joints, dt);
-        self.bounds().check(&self.core.joints, self.time())
+        match worst {
+            Some(j) => Err(bounds.error(&self.core.joints, j, self.time())),
+            None => Ok(()),
+        }
     }
 
     /// Sets how the coming steps choose their substeps (ANSYS `AUTOTS`; see [`StepControl`]).
@@ -842,20 +840,33 @@ impl Mpc184World {
 
     /// Refreshes every joint's output from the bodies now.
     fn refresh_outputs(&mut self) {
+        self.refresh_outputs_within(None);
+    }
+
+    /// [`Mpc184World::refresh_outputs`], checking each output against `bounds` as it is
+    /// written (one pass over the joints): the joint furthest past a bound, if any.
+    fn refresh_outputs_within(&mut self, bounds: Option<&Bounds>) -> Option<usize> {
         let roles = self.core.joints.roles();
         // `roles.springs` is in joint order: merged with the loop.
         let mut springs = roles.springs.iter().peekable();
         let (physics, backend) = (&self.physics, &self.backend);
+        let mut worst: Option<(usize, Real)> = None;
         for i in 0..self.core.joints.len() {
             let spring = springs.next_if_eq(&&i).is_some();
-            if let Some(e) = self.core.joints.get_mut(i) {
-                e.refresh_output(
-                    &physics.bodies,
-                    |h| backend.body_velocity(physics, h),
-                    spring,
-                );
+            let Some(e) = self.core.joints.get_mut(i) else {
+                continue;
+            };
+            e.refresh_output(
+                &physics.bodies,
+                |h| backend.body_velocity(physics, h),
+                spring,
+            );
+            let r = bounds.map_or(0.0, |b| b.ratio(&e.state.output));
+            if r > 1.0 && worst.is_none_or(|(_, w)| r > w) {
+                worst = Some((i, r));
             }
         }
+        worst.map(|(j, _)| j)
     }
 
     /// Refreshes joint `i`'s output (kinematics and status) from the bodies now.

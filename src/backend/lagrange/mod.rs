@@ -65,10 +65,10 @@ mod topology;
 use std::collections::HashMap;
 
 use crate::error::Error;
+use crate::joint_set::Roles;
 use crate::math::rapier::dynamics::RigidBodyHandle;
 use crate::math::{Matrix, Pose, Real, Rotation, Vector};
 use crate::output::EnergyLedger;
-use crate::rows::RowKind;
 use crate::solver::kkt::{JAC_ROW_STRIDE, KktSolver};
 
 use super::Sets;
@@ -436,7 +436,8 @@ impl LagrangeBackend {
     pub(crate) fn step(&mut self, sets: &mut Sets, h: Real, n: usize) -> Result<(), Error> {
         self.fx.fit(sets.joints);
         sets.joints.apply_pending_locks()?;
-        self.fx.begin_step(sets.joints);
+        let roles = sets.joints.roles();
+        self.fx.begin_step(sets.joints, &roles);
         let rebuilt = self.needs_rebuild(sets);
         if rebuilt {
             self.topology(sets)?;
@@ -447,7 +448,7 @@ impl LagrangeBackend {
                 redundant_rows: island.report.redundant_rows,
                 ..IslandReport::default()
             };
-            island.prepare(&self.fx, sets, h, rebuilt)?;
+            island.prepare(&self.fx, &roles, sets, h, rebuilt)?;
             island.choose_composition(sets.integrator, alone);
             island.last_h = h;
         }
@@ -580,21 +581,20 @@ impl Island {
     fn prepare(
         &mut self,
         fx: &effects::Effects,
+        roles: &Roles,
         sets: &Sets,
         h: Real,
         rebuilt: bool,
     ) -> Result<(), Error> {
-        self.has_effects = fx.any(sets.joints, &self.members);
-        self.has_elastic_stops = fx.has_elastic_stops(sets.joints, &self.members);
+        self.has_effects = fx.any(roles, &self.members);
+        self.has_elastic_stops = fx.has_elastic_stops(roles, &self.members);
         self.plain = !self.has_effects
             && self.springs.is_empty()
             && !self.members.iter().any(|&j| {
-                sets.joints.get(j).is_some_and(|e| {
-                    e.state
-                        .rows
-                        .iter()
-                        .any(|r| matches!(r, RowKind::Screw { .. } | RowKind::Drive { .. }))
-                })
+                roles
+                    .flags
+                    .get(j)
+                    .is_some_and(|f| f & Roles::REFERENCES != 0)
             });
         self.watch_contacts = self
             .bodies

@@ -27,10 +27,8 @@ mod forces;
 mod friction;
 mod limits;
 
-use crate::catalogue::JointKind;
 use crate::error::Error;
-use crate::joint::ConstraintMethod;
-use crate::joint_set::{JointEntry, JointSet};
+use crate::joint_set::{JointEntry, JointSet, Roles};
 use crate::math::rapier::dynamics::RigidBodySet;
 use crate::math::{Real, Vector};
 use crate::rows::{FramePair, RowEval};
@@ -75,11 +73,19 @@ pub(crate) struct JointScratch {
 )]
 pub(crate) struct Effects {
     scratch: Vec<JointScratch>,
+    /// The joint set's topology the scratch was fitted to.
+    #[cfg_attr(feature = "serde-snapshot", serde(skip))]
+    fitted_for: Option<u64>,
 }
 
 impl Effects {
-    /// One scratch entry per joint slot (cleared where the joint was removed).
+    /// One scratch entry per joint slot (cleared where the joint was removed), after a change
+    /// of the joints.
     pub(crate) fn fit(&mut self, joints: &JointSet) {
+        if self.fitted_for == Some(joints.topology()) {
+            return;
+        }
+        self.fitted_for = Some(joints.topology());
         self.scratch
             .resize_with(joints.len(), JointScratch::default);
         for (s, e) in self.scratch.iter_mut().zip(joints.slots()) {
@@ -94,21 +100,23 @@ impl Effects {
         self.scratch.get(j).cloned().unwrap_or_default()
     }
 
-    /// True when some joint of `members` has behaviour the substep must look at.
-    pub(crate) fn any(&self, joints: &JointSet, members: &[usize]) -> bool {
-        members
-            .iter()
-            .filter_map(|&j| joints.get(j))
-            .any(|e| !e.joint.behaviour.is_empty() || !e.loads.is_empty())
+    /// True when some joint of `members` has behaviour the substep must look at
+    /// ([`Roles::EFFECTS`]).
+    pub(crate) fn any(&self, roles: &Roles, members: &[usize]) -> bool {
+        Self::some(roles, members, Roles::EFFECTS)
     }
 
-    /// Some joint of `members` has an elastic stop (Lagrange method, not a screw).
-    pub(crate) fn has_elastic_stops(&self, joints: &JointSet, members: &[usize]) -> bool {
-        members.iter().filter_map(|&j| joints.get(j)).any(|e| {
-            !e.joint.behaviour.stops.is_empty()
-                && !matches!(e.joint.method, ConstraintMethod::Penalty { .. })
-                && !matches!(e.joint.kind, JointKind::Screw { .. })
-        })
+    /// Some joint of `members` has an elastic stop (Lagrange method, not a screw:
+    /// [`Roles::ELASTIC_STOPS`]).
+    pub(crate) fn has_elastic_stops(&self, roles: &Roles, members: &[usize]) -> bool {
+        Self::some(roles, members, Roles::ELASTIC_STOPS)
+    }
+
+    /// Some joint of `members` has the role `bit`.
+    fn some(roles: &Roles, members: &[usize], bit: u8) -> bool {
+        members
+            .iter()
+            .any(|&j| roles.flags.get(j).is_some_and(|f| f & bit != 0))
     }
 
     /// Elastic energy of the springs of `members` at their last evaluation (J).
@@ -120,10 +128,13 @@ impl Effects {
             .sum()
     }
 
-    /// Resets the per-step limit flags (called at a step's start).
-    pub(crate) fn begin_step(&mut self, joints: &mut JointSet) {
-        for e in joints.iter_mut() {
-            e.state.at_stop = [false; 6];
+    /// Resets the per-step limit flags (called at a step's start) of the joints with stops or
+    /// locks, the only ones that set them.
+    pub(crate) fn begin_step(&mut self, joints: &mut JointSet, roles: &Roles) {
+        for &j in &roles.limits {
+            if let Some(e) = joints.get_mut(j) {
+                e.state.at_stop = [false; 6];
+            }
         }
     }
 
