@@ -166,26 +166,11 @@ impl Progress {
 /// scale of its own, and its round-off must not trip the guard.
 pub const GUARD_FLOOR: Real = 1e-6;
 
-/// The energy the loads could put into a world at rest (J): every dynamic body's weight over
-/// the model size, and every joint load (N or N m) over the model size or 1 rad.
-pub(crate) fn load_scale(
-    bodies: &crate::math::rapier::dynamics::RigidBodySet,
-    joints: &JointSet,
-    gravity: Vector,
-    size: Real,
-    time: Real,
-) -> Real {
-    let weight: Real = bodies
-        .iter()
-        .filter(|(_, rb)| rb.is_dynamic())
-        .map(|(_, rb)| rb.mass() * rb.gravity_scale().abs() * gravity.length())
-        .sum();
-    let loads: Real = joints
-        .iter()
-        .flat_map(|e| e.loads.iter())
-        .map(|d| d.profile.value_after(time).abs())
-        .sum();
-    (weight + loads) * size.max(1.0)
+/// The energy the loads could put into a world at rest (J): every dynamic body's weight (N,
+/// `weight`: the sum of `m |gravity scale| |g|`) over the model size, and every joint load (N
+/// or N m) over the model size or 1 rad.
+pub(crate) fn load_scale(weight: Real, joints: &JointSet, size: Real, time: Real) -> Real {
+    (weight + joints.load_magnitude(time)) * size.max(1.0)
 }
 
 /// The energy guard: a step whose balance (`EnergyReport::total`) grew by more than

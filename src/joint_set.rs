@@ -290,17 +290,30 @@ impl JointSet {
     /// step), else over all (the same sum: the others hold 0; from +0, so that no spring
     /// gives +0 both ways, where `Sum` would give -0 for none).
     pub(crate) fn spring_energy(&self) -> Real {
-        let energy = |e: &JointEntry| e.state.output.spring_energy;
-        let add = |a: Real, e: Real| a + e;
+        self.with_role(|r| &r.springs)
+            .map(|e| e.state.output.spring_energy)
+            .fold(0.0, |a, e| a + e)
+    }
+
+    /// The sum of the magnitudes of the joint loads at `time` (N or N m; the energy guard's
+    /// floor), over the joints with forces when the roles are current, else over all.
+    pub(crate) fn load_magnitude(&self, time: Real) -> Real {
+        self.with_role(|r| &r.forces)
+            .flat_map(|e| e.loads.iter())
+            .map(|d| d.profile.value_after(time).abs())
+            .fold(0.0, |a, e| a + e)
+    }
+
+    /// The joints of one role list (in joint order) when the roles are listed for the joints
+    /// as they are; otherwise every joint (a superset, in the same order).
+    fn with_role<'a>(
+        &'a self,
+        list: impl Fn(&Roles) -> &Vec<usize>,
+    ) -> Box<dyn Iterator<Item = &'a JointEntry> + 'a> {
         if self.roles_for == Some(self.revision) {
-            self.roles
-                .springs
-                .iter()
-                .filter_map(|&j| self.get(j))
-                .map(energy)
-                .fold(0.0, add)
+            Box::new(list(&self.roles).iter().filter_map(|&j| self.get(j)))
         } else {
-            self.iter().map(energy).fold(0.0, add)
+            Box::new(self.iter())
         }
     }
 

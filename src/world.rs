@@ -494,11 +494,12 @@ impl Mpc184World {
         self.body_energies().1
     }
 
-    /// The kinetic and gravitational energies of all dynamic bodies (J), in one pass over the
-    /// bodies (the energy guard takes them twice per step).
-    fn body_energies(&self) -> (Real, Real) {
-        let g = self.physics.gravity;
-        let (mut kinetic, mut potential) = (0.0, 0.0);
+    /// The kinetic and gravitational energies of all dynamic bodies (J) and their weight (N,
+    /// `m |gravity scale| |g|` summed: the energy guard's floor), in one pass over the bodies
+    /// (the energy guard takes them twice per step).
+    fn body_energies(&self) -> (Real, Real, Real) {
+        let (g, g_length) = (self.physics.gravity, self.physics.gravity.length());
+        let (mut kinetic, mut potential, mut weight) = (0.0, 0.0, 0.0);
         for (h, rb) in self.physics.bodies.iter() {
             if !rb.is_dynamic() {
                 continue;
@@ -506,24 +507,31 @@ impl Mpc184World {
             let (v, w) = self.velocity_of(h);
             kinetic += 0.5 * rb.mass() * v.length_squared() + crate::body::rotational_energy(rb, w);
             potential -= rb.mass() * rb.gravity_scale() * g.dot(rb.center_of_mass());
+            weight += rb.mass() * rb.gravity_scale().abs() * g_length;
         }
-        (kinetic, potential)
+        (kinetic, potential, weight)
     }
 
     /// The energy balance now: kinetic, gravitational, spring, dissipated and the work of
     /// loads and drives (see [`EnergyReport`]).
     pub fn energy(&self) -> EnergyReport {
-        let (kinetic, potential) = self.body_energies();
+        self.energy_and_weight().0
+    }
+
+    /// [`Mpc184World::energy`], and the bodies' weight (N, see `body_energies`).
+    fn energy_and_weight(&self) -> (EnergyReport, Real) {
+        let (kinetic, potential, weight) = self.body_energies();
         let spring = self.core.joints.spring_energy() + self.spring_element_energy();
         let ledger = self.core.progress.ledger;
-        EnergyReport {
+        let report = EnergyReport {
             kinetic,
             potential,
             spring,
             dissipated: ledger.dissipated,
             work: ledger.work,
             total: kinetic + potential + spring + ledger.dissipated - ledger.work,
-        }
+        };
+        (report, weight)
     }
 
     /// Diagnostics of the Lagrange backend (redundant rows, projection residual, warnings;
@@ -587,8 +595,8 @@ impl Mpc184World {
         self.save_checkpoint();
         let guard = self.core.limits.energy_growth.is_finite();
         let before = guard.then(|| {
-            let e = self.energy();
-            let floor = self.load_scale();
+            let (e, weight) = self.energy_and_weight();
+            let floor = self.load_scale(weight);
             self.core.progress.scale_with(&e, floor);
             (e, floor)
         });
@@ -645,15 +653,10 @@ impl Mpc184World {
         )
     }
 
-    /// What the loads could put into the world at rest (J; the energy guard's floor).
-    fn load_scale(&self) -> Real {
-        crate::divergence::load_scale(
-            &self.physics.bodies,
-            &self.core.joints,
-            self.physics.gravity,
-            self.model_size(),
-            self.time(),
-        )
+    /// What the loads could put into the world at rest (J; the energy guard's floor), with
+    /// the bodies' weight `weight` (N).
+    fn load_scale(&self, weight: Real) -> Real {
+        crate::divergence::load_scale(weight, &self.core.joints, self.model_size(), self.time())
     }
 
     /// Sets the gravity (m/s^2) and books the work of the change: the gravitational energy
