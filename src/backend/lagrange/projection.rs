@@ -137,9 +137,9 @@ impl Island {
             *b = (s.pose, s.com);
         }
         self.last_lambda.copy_from_slice(&self.rhs_j);
-        for r in 0..self.rhs_j.len() {
-            self.impulse[r] -= self.rhs_j[r] / h;
-            self.mu[r] -= self.rhs_j[r];
+        for ((impulse, mu), &l) in self.impulse.iter_mut().zip(&mut self.mu).zip(&self.rhs_j) {
+            *impulse -= l / h;
+            *mu -= l;
         }
         for i in 0..self.bodies.len() {
             let x = self.rhs_b[i];
@@ -192,23 +192,25 @@ impl Island {
         for b in self.rhs_b.iter_mut() {
             *b = [0.0; 6];
         }
-        // J^T mu per body.
-        for k in 0..kkt.num_joints() {
-            let spec = kkt.joint_specs()[k];
+        // J^T mu per body (through local slices: the stores into `rhs_b` would otherwise make
+        // every access reload the vectors' pointers from `self`).
+        let (jac, mu, rhs_b) = (&self.jac[..], &self.mu[..], &mut self.rhs_b[..]);
+        for (k, spec) in kkt.joint_specs().iter().enumerate() {
             let r0 = kkt.row_offset(k);
             for r in r0..r0 + spec.rows {
-                let jr = &self.jac[JAC_ROW_STRIDE * r..JAC_ROW_STRIDE * (r + 1)];
-                for (slot, body) in spec.bodies.iter().enumerate() {
+                let jr = &jac[JAC_ROW_STRIDE * r..JAC_ROW_STRIDE * (r + 1)];
+                let m = mu[r];
+                for (half, body) in jr.chunks_exact(6).zip(spec.bodies) {
                     if let Some(i) = body {
-                        for a in 0..6 {
-                            self.rhs_b[*i][a] += jr[6 * slot + a] * self.mu[r];
+                        for (acc, &x) in rhs_b[i].iter_mut().zip(half) {
+                            *acc += x * m;
                         }
                     }
                 }
             }
         }
-        for r in 0..self.mu.len() {
-            self.impulse[r] += self.mu[r] / h;
+        for (impulse, &m) in self.impulse.iter_mut().zip(&self.mu) {
+            *impulse += m / h;
         }
         for i in 0..self.st.len() {
             let g = self.rhs_b[i];
