@@ -60,9 +60,9 @@ pub enum StepControl {
     Fixed,
     /// Step doubling to a tolerance: the step is taken with `n` and with `2 n` substeps from
     /// the same state (the checkpoint restores it bit for bit); the difference of the bodies'
-    /// positions (rotations times the model size) plus `dt` times the difference of their
-    /// velocities (an impact, a lock engaging or a stick/slip change shows in the velocities
-    /// first), over `2^p - 1` for the scheme's order `p` (4 for the composition, 2 for RATTLE,
+    /// positions (rotations times the model size) plus `dt` (or `horizon`, if longer) times
+    /// the difference of their velocities (an impact, a lock engaging or a stick/slip change
+    /// shows in the velocities first), over `2^p - 1` for the scheme's order `p` (4 for the composition, 2 for RATTLE,
     /// else 1), estimates the error of the `2 n` result, which is kept when the
     /// estimate is within `tolerance`; otherwise `n` doubles and the step is taken again, up to
     /// `max_substeps`. `n` starts at `substeps` and follows the estimate from step to step
@@ -101,6 +101,25 @@ pub enum StepControl {
         energy_tolerance: Real,
         /// Most substeps per step (a step that needs more is kept with a note in the stats).
         max_substeps: usize,
+        /// The time a velocity error is weighed over in the estimate (s): the velocity
+        /// difference of the two runs counts `max(horizon, span) |dv|`, with `span` the
+        /// stretch the runs integrate (0: the step itself, a local error per step).
+        ///
+        /// A velocity error made at `t` moves the trajectory by about `dv (T - t)` by the end
+        /// `T` of a run (an energy error becomes a phase drift that grows with time), and the
+        /// step's own span does not see that. To hold a whole run of `T` to a trajectory
+        /// error `tol`, ask `tolerance = tol dt / T` per step with `horizon = T / 2` (the mean
+        /// time left). Measured on the A02 four-bar over 10 s, fourth order, asked 1e-5 and
+        /// 1e-6 m: with `horizon` 0 the error reached 4.3 and 6.5 times the request; with 5 s,
+        /// 0.29 and 0.30 times, for 1.8 and 2.0 times the CPU (`tests/adaptive_horizon.rs`;
+        /// the chart study's `adaptive-order4-horizon` runs, `docs/charts/summary.md`).
+        ///
+        /// Its price on a smooth scene asked far below what the scheme reaches anyway: the
+        /// velocity term meets the position projection's own noise (its 1e-10 m tolerance
+        /// shows as velocity differences of about 1e-10 m / h between the two runs) and the
+        /// step is refined past the request (A01 asked 1e-6 m over 10 s: 1.6e-9 m for 120
+        /// times the CPU of `horizon` 0, which reached 8.3e-8 m).
+        horizon: Real,
     },
 }
 

@@ -606,7 +606,8 @@ impl Mpc184World {
                 tolerance,
                 energy_tolerance,
                 max_substeps,
-            } => self.step_adaptive(dt, [tolerance, energy_tolerance], max_substeps),
+                horizon,
+            } => self.step_adaptive(dt, [tolerance, energy_tolerance, horizon], max_substeps),
         };
         let result = stepped.and_then(|()| match before {
             Some((e, floor)) => self.energy_guard(&e, floor),
@@ -933,8 +934,16 @@ fn check_control(control: StepControl) -> Result<(), Error> {
         tolerance,
         energy_tolerance,
         max_substeps,
+        horizon,
     } = control
     {
+        if !(horizon.is_finite() && horizon >= 0.0) {
+            return Err(Error::InvalidSetting {
+                field: "control.horizon",
+                value: horizon,
+                reason: "the horizon must be finite and not negative (0: the step itself)",
+            });
+        }
         if energy_tolerance.is_nan() || energy_tolerance <= 0.0 {
             return Err(Error::InvalidSetting {
                 field: "control.energy_tolerance",

@@ -52,6 +52,7 @@ fn the_adaptive_control_cuts_the_diverging_runs() {
             tolerance: requested * DT / 5.0,
             energy_tolerance: Real::INFINITY,
             max_substeps: 4096,
+            horizon: 0.0,
         })
         .unwrap();
     let mut reference = slider_crank(64);

@@ -64,6 +64,7 @@ fn the_lock_step_is_refined_to_the_energy_tolerance() {
         tolerance: 1e-3,
         energy_tolerance: target * M * lock_angle(),
         max_substeps: 1 << 14,
+        horizon: 0.0,
     };
     let (err, cost, world, id) = wheel(1, control);
     let stats = world.step_stats();
@@ -102,6 +103,7 @@ fn stop_impacts_are_located() {
             tolerance: 1e-6,
             energy_tolerance: Real::INFINITY,
             max_substeps: 1 << 12,
+            horizon: 0.0,
         },
         ..WorldSettings::default()
     });

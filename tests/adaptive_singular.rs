@@ -20,9 +20,10 @@
 //!    6.8e-6).
 #![cfg(feature = "f64")]
 
+mod common;
+
 use rapier3d_mpc184::prelude::*;
 use rapier3d_mpc184::studies::benchmarks;
-use rapier3d_mpc184::studies::metrics::rk4_step;
 
 const DT: Real = 1.0 / 30.0;
 const SECONDS: Real = 10.0;
@@ -34,24 +35,6 @@ fn settings(substeps: usize) -> WorldSettings {
         integrator: Integrator::Composition4,
         ..Default::default()
     }
-}
-
-/// The crank tip `(cos theta, sin theta)` at the end of every step of `DT`, by RK4 on
-/// `theta'' = -(6 g / 5) cos theta` from `theta = pi / 2`, `theta' = -1`.
-fn exact_tips(steps: usize) -> Vec<Vector> {
-    let g = 9.81;
-    let f = |th: Real| -(6.0 * g / 5.0) * th.cos();
-    let (mut th, mut w): (Real, Real) = (std::f64::consts::FRAC_PI_2, -1.0);
-    let sub = 1024;
-    let h = DT / sub as Real;
-    let mut tips = Vec::with_capacity(steps);
-    for _ in 0..steps {
-        for _ in 0..sub {
-            (th, w) = rk4_step(f, th, w, h);
-        }
-        tips.push(Vector::new(th.cos(), th.sin(), 0.0));
-    }
-    tips
 }
 
 #[test]
@@ -76,11 +59,12 @@ fn the_adaptive_control_keeps_its_tolerance_through_singular_poses() {
             tolerance: requested * DT / SECONDS,
             energy_tolerance: Real::INFINITY,
             max_substeps: 4096,
+            horizon: 0.0,
         })
         .unwrap();
     let steps = (SECONDS / DT).round() as usize;
     let (mut worst, mut projection_cuts): (Real, u32) = (0.0, 0);
-    for tip in exact_tips(steps) {
+    for tip in common::four_bar_tips(DT, steps) {
         let before = b.world.step_stats().rejected;
         b.world.step().unwrap();
         worst = worst.max((b.probe_position() - tip).length());

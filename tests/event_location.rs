@@ -50,6 +50,7 @@ fn a_lock_is_located_to_its_exact_time() {
                 tolerance: 1e-3,
                 energy_tolerance,
                 max_substeps: 1 << 14,
+                horizon: 0.0,
             },
             ..WorldSettings::default()
         },
@@ -94,6 +95,7 @@ fn every_impact_is_located_and_the_first_at_its_time() {
             tolerance: TOL,
             energy_tolerance: Real::INFINITY,
             max_substeps: 1 << 12,
+            horizon: 0.0,
         },
         ..WorldSettings::default()
     });
@@ -163,6 +165,7 @@ fn a_breakaway_is_located_at_the_friction_limit() {
                 tolerance,
                 energy_tolerance: Real::INFINITY,
                 max_substeps: 1 << 12,
+                horizon: 0.0,
             },
             ..WorldSettings::default()
         },

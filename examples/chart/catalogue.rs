@@ -12,9 +12,11 @@ pub(crate) enum Method {
     Order4,
     /// The adaptive step control (step doubling, `StepControl::Adaptive`) on RATTLE or on the
     /// fourth-order composition, at dt 1/30 over the study's tolerances (the work-precision
-    /// charts only).
+    /// charts only); `horizon`: the velocity difference weighed over half the run (the mean
+    /// time left) instead of the step.
     Adaptive {
         order4: bool,
+        horizon: bool,
     },
     Penalty(f64),
     Impulse,
@@ -52,9 +54,19 @@ pub(crate) const PEERS: [Method; 4] = [
 ];
 
 /// The adaptive variants, in the order the charts list them.
-pub(crate) const ADAPTIVE: [Method; 2] = [
-    Method::Adaptive { order4: false },
-    Method::Adaptive { order4: true },
+pub(crate) const ADAPTIVE: [Method; 3] = [
+    Method::Adaptive {
+        order4: false,
+        horizon: false,
+    },
+    Method::Adaptive {
+        order4: true,
+        horizon: false,
+    },
+    Method::Adaptive {
+        order4: true,
+        horizon: true,
+    },
 ];
 
 /// The methods with runs in `runs`: this crate's fixed-step ones ([`METHODS`]), then the
@@ -87,8 +99,11 @@ impl Method {
             Method::Lagrange => "lagrange".into(),
             Method::Rattle => "lagrange-rattle".into(),
             Method::Order4 => "lagrange-order4".into(),
-            Method::Adaptive { order4: false } => "adaptive-rattle".into(),
-            Method::Adaptive { order4: true } => "adaptive-order4".into(),
+            Method::Adaptive { order4, horizon } => format!(
+                "adaptive-{}{}",
+                if order4 { "order4" } else { "rattle" },
+                if horizon { "-horizon" } else { "" }
+            ),
             Method::Penalty(k) => format!("penalty-{k:.0e}"),
             Method::Impulse => "rapier-impulse".into(),
             Method::Multibody => "rapier-multibody".into(),
@@ -129,8 +144,15 @@ impl Method {
             Method::Lagrange => RGBColor(31, 119, 180),
             Method::Rattle => RGBColor(148, 103, 189),
             Method::Order4 => RGBColor(188, 189, 34),
-            Method::Adaptive { order4: false } => RGBColor(84, 39, 143),
-            Method::Adaptive { order4: true } => RGBColor(110, 112, 0),
+            Method::Adaptive { order4: false, .. } => RGBColor(84, 39, 143),
+            Method::Adaptive {
+                order4: true,
+                horizon: false,
+            } => RGBColor(110, 112, 0),
+            Method::Adaptive {
+                order4: true,
+                horizon: true,
+            } => RGBColor(0, 128, 128),
             Method::Penalty(k) if k < 1e5 => RGBColor(255, 187, 120),
             Method::Penalty(k) if k < 1e7 => RGBColor(255, 127, 14),
             Method::Penalty(_) => RGBColor(140, 86, 75),
@@ -332,8 +354,8 @@ pub(crate) fn settings(method: Method, dt: f64, substeps: usize) -> WorldSetting
         substeps,
         backend: method.backend(),
         integrator: match method {
-            Method::Rattle | Method::Adaptive { order4: false } => Integrator::Rattle,
-            Method::Order4 | Method::Adaptive { order4: true } => Integrator::Composition4,
+            Method::Rattle | Method::Adaptive { order4: false, .. } => Integrator::Rattle,
+            Method::Order4 | Method::Adaptive { order4: true, .. } => Integrator::Composition4,
             _ => Integrator::SymplecticEuler,
         },
         ..WorldSettings::default()

@@ -154,7 +154,8 @@ fn adaptive_table(s: &mut String, rs: &[&Run], floor: f64) {
     }
     let _ = writeln!(
         s,
-        "\nAdaptive step control (dt 1/30, step doubling, per-step tolerance = requested x dt / duration):\n\n\
+        "\nAdaptive step control (dt 1/30, step doubling, per-step tolerance = requested x dt / duration; \
+         `-horizon`: the velocity difference weighed over duration / 2 instead of the step):\n\n\
          | method | requested (m) | achieved (m) | achieved / requested | CPU s/s | cheapest fixed step reaching it | status |\n|---|---|---|---|---|---|---|"
     );
     for r in adaptive {

@@ -129,6 +129,8 @@ struct Mark {
 struct Control {
     tolerance: Real,
     energy_tolerance: Real,
+    /// The time a velocity difference is weighed over (s; at least the span integrated).
+    horizon: Real,
     /// The scheme's order (the estimate divides by `2^p - 1`).
     order: u32,
     /// Most substeps per `dt`.
@@ -165,12 +167,13 @@ impl Mpc184World {
     pub(super) fn step_adaptive(
         &mut self,
         dt: Real,
-        [tolerance, energy_tolerance]: [Real; 2],
+        [tolerance, energy_tolerance, horizon]: [Real; 3],
         max_substeps: usize,
     ) -> Result<(), Error> {
         let c = Control {
             tolerance,
             energy_tolerance,
+            horizon,
             order: self.backend.order(self.core.settings.integrator),
             max: max_substeps.max(2),
             dt,
@@ -292,16 +295,17 @@ impl Mpc184World {
             let ledger = self.core.progress.ledger;
             let energy = (ledger.dissipated - coarse_ledger.dissipated).abs()
                 + (ledger.work - coarse_ledger.work).abs();
-            // Per body: the position difference, plus the velocity difference over the span
-            // (an event the control does not locate lands both runs on the same position but
-            // not with the same velocity; this is how it refines the step then).
+            // Per body: the position difference, plus the velocity difference over the span or
+            // the horizon (an event the control does not locate lands both runs on the same
+            // position but not with the same velocity; this is how it refines the step then).
+            let carried = c.horizon.max(span);
             let (diff, worst) = coarse
                 .iter()
                 .zip(self.dynamic_states())
                 .map(|(a, b)| {
                     let d = (a.1 - b.1).length()
                         + size * a.2.angle_between(b.2)
-                        + span * ((a.3 - b.3).length() + size * (a.4 - b.4).length());
+                        + carried * ((a.3 - b.3).length() + size * (a.4 - b.4).length());
                     (d, a.0)
                 })
                 .fold((0.0 as Real, None), |acc, (d, h)| {

@@ -55,9 +55,11 @@ impl DeckModel {
                 } else {
                     -tol as Real
                 },
-                // ANSYS' time-step control has no energy criterion of this kind.
+                // ANSYS' time-step control has no energy criterion of this kind, and its
+                // tolerance is per step (no horizon).
                 energy_tolerance: Real::INFINITY,
                 max_substeps,
+                horizon: 0.0,
             },
             None => StepControl::Fixed,
         };
