@@ -186,6 +186,7 @@ pub fn spherical_top(
 /// RK4 (1024 substeps per step) on its 1-DOF equation `theta'' = -(6 g / 5) cos theta` from
 /// `theta = pi / 2`, `theta' = -1` (crank and rocker `m L^2 / 3` about their pivots, the
 /// coupler translating with the crank tip). At 1/30720 s RK4's error is far below 1e-8 m.
+#[cfg(feature = "f64")]
 #[allow(dead_code, reason = "only the A02 adaptive tests use it")]
 pub fn four_bar_tips(dt: Real, steps: usize) -> Vec<Vector> {
     let g = 9.81;
