@@ -69,7 +69,7 @@
 
 use crate::backend::{BackendSave, JointBackend};
 use crate::error::{Error, JointId};
-use crate::joint_set::{JointSet, JointState};
+use crate::joint_set::{JointSet, SavedStates};
 use crate::math::rapier::dynamics::RigidBodyHandle;
 use crate::math::rapier::pipeline::PhysicsWorld;
 use crate::math::{Pose, Real, Vector};
@@ -301,7 +301,7 @@ struct BodySave {
 pub(crate) struct Checkpoint {
     progress: Progress,
     bodies: Vec<BodySave>,
-    joints: Vec<Option<JointState>>,
+    joints: SavedStates,
     backend: BackendSave,
 }
 
@@ -380,16 +380,12 @@ impl Checkpoint {
                 // neighbours only feel its reactions through the bodies' inertia), with the
                 // relative translation per step over the translational bound as a fourth
                 // measure.
-                self.joints
-                    .get(j)
-                    .and_then(Option::as_ref)
-                    .map_or(0.0, |s| {
-                        let o = &s.output;
-                        bounds
-                            .ratios(o)
-                            .into_iter()
-                            .fold(o.velocity.length() * bounds.dt / bounds.gap, Real::max)
-                    })
+                self.joints.output(j).map_or(0.0, |o| {
+                    bounds
+                        .ratios(o)
+                        .into_iter()
+                        .fold(o.velocity.length() * bounds.dt / bounds.gap, Real::max)
+                })
             } else {
                 let (gap, angular) = e.gaps(&physics.bodies);
                 (gap / bounds.gap).max(angular / bounds.angular)
