@@ -438,7 +438,7 @@ impl JointSet {
     /// output (not [`Roles::STATEFUL`], when the roles are listed for the joints as they
     /// are) only those two are copied, into a slot that holds a whole copy already: the
     /// checkpoint's copy was 6 % of the `rapier-impulse` step on the 400-arm mixed scene, and
-    /// the rows are most of it.
+    /// the rows, locks, stop flags and friction state are about half of it.
     pub(crate) fn save_states(&self, out: &mut SavedStates) {
         let n = self.entries.len();
         out.states.truncate(n);
