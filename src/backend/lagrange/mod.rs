@@ -508,8 +508,8 @@ impl LagrangeBackend {
         let bodies = &sets.physics.bodies;
         for (ji, e) in sets.joints.slots_mut().iter_mut().enumerate() {
             let Some(e) = e else { continue };
-            let scratch = self.fx.scratch(ji);
-            e.state.output.element_force = scratch.force;
+            let (element_force, on_body2) = self.fx.forces_of(ji);
+            e.state.output.element_force = element_force;
             // An asleep island keeps the reactions it had when it fell asleep.
             if self.asleep.get(ji).copied().unwrap_or(false) {
                 continue;
@@ -531,8 +531,8 @@ impl LagrangeBackend {
                 }
             }
             // Springs, dampers, loads and limit impulses of the last substep.
-            f += scratch.on_body2.0;
-            tau += scratch.on_body2.1;
+            f += on_body2.0;
+            tau += on_body2.1;
             e.set_reaction(bodies, f, tau);
         }
     }

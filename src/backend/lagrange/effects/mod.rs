@@ -95,9 +95,14 @@ impl Effects {
         }
     }
 
-    /// Joint `j`'s scratch (empty if it never stepped).
-    pub(crate) fn scratch(&self, j: usize) -> JointScratch {
-        self.scratch.get(j).cloned().unwrap_or_default()
+    /// Joint `j`'s element forces (N or N m per DOF) and its wrench on body 2 (force, torque
+    /// about its centre of mass, world frame) in the last substep; zero if it never stepped.
+    pub(crate) fn forces_of(&self, j: usize) -> ([Real; 6], (Vector, Vector)) {
+        self.scratch
+            .get(j)
+            .map_or(([0.0; 6], (Vector::ZERO, Vector::ZERO)), |s| {
+                (s.force, s.on_body2)
+            })
     }
 
     /// True when some joint of `members` has behaviour the substep must look at
