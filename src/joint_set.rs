@@ -200,6 +200,13 @@ impl Roles {
     /// locks, stop flags or friction state during a step.
     pub(crate) const STATEFUL: u8 = 8;
 
+    /// Some joint of `members` has the role `bit` (one of the flags above).
+    pub(crate) fn any(&self, members: &[usize], bit: u8) -> bool {
+        members
+            .iter()
+            .any(|&j| self.flags.get(j).is_some_and(|f| f & bit != 0))
+    }
+
     fn of(entries: &[Option<JointEntry>]) -> Roles {
         let mut roles = Roles {
             flags: vec![0; entries.len()],

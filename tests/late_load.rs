@@ -16,19 +16,9 @@
 //! is the rate the output reports, `OMGZ`.
 #![cfg(feature = "f64")]
 
-use rapier3d_mpc184::math::rapier::prelude::{MassProperties, RigidBodyBuilder};
-use rapier3d_mpc184::prelude::*;
+mod common;
 
-fn constant(moment: Real) -> DriveProfile {
-    DriveProfile {
-        t0: 0.0,
-        t1: 0.0,
-        from: moment,
-        to: moment,
-        stepped: true,
-        extend: false,
-    }
-}
+use rapier3d_mpc184::prelude::*;
 
 /// The wheel's rate at the end of each stretch on `backend`.
 fn rates(backend: Backend) -> Vec<Real> {
@@ -39,15 +29,7 @@ fn rates(backend: Backend) -> Vec<Real> {
         ..WorldSettings::default()
     });
     world.physics.gravity = Vector::ZERO;
-    let wheel = world.physics.bodies.insert(
-        RigidBodyBuilder::dynamic()
-            .additional_mass_properties(MassProperties::new(
-                Vector::ZERO,
-                2.0,
-                Vector::new(0.05, 0.05, 0.1),
-            ))
-            .can_sleep(false),
-    );
+    let wheel = common::wheel(&mut world);
     let id = world
         .insert_joint(
             None,
@@ -58,7 +40,9 @@ fn rates(backend: Backend) -> Vec<Real> {
     let mut out = Vec::new();
     for load in [None, Some(0.5), None, Some(-0.25), None] {
         match load {
-            Some(m) => world.set_load(id, Dof::RotZ, constant(m)).unwrap(),
+            Some(m) => world
+                .set_load(id, Dof::RotZ, common::constant_load(m))
+                .unwrap(),
             None => world.remove_load(id, Dof::RotZ).unwrap(),
         }
         for _ in 0..30 {

@@ -101,7 +101,21 @@ pub fn stop_pendulum(settings: WorldSettings) -> (Mpc184World, JointId) {
 #[allow(dead_code, reason = "only the lock tests use it")]
 pub fn lock_wheel(settings: WorldSettings, moment: Real) -> (Mpc184World, JointId) {
     let mut world = Mpc184World::new(settings);
-    let wheel = world.physics.bodies.insert(
+    let wheel = wheel(&mut world);
+    let lock = (5.0f64).to_radians() as Real;
+    let hinge = Mpc184Joint::revolute(Axis::Z, Vector::ZERO).with_lock(Dof::RotZ, -lock, lock);
+    let id = world.insert_joint(None, Some(wheel), hinge).unwrap();
+    world
+        .set_load(id, Dof::RotZ, constant_load(moment))
+        .unwrap();
+    (world, id)
+}
+
+/// A wheel of 2 kg with `I_zz` = 0.1 kg m^2 (0.05 about X and Y), its centre at the origin,
+/// at rest and kept awake.
+#[allow(dead_code, reason = "only the wheel tests use it")]
+pub fn wheel(world: &mut Mpc184World) -> rapier3d_mpc184::math::rapier::dynamics::RigidBodyHandle {
+    world.physics.bodies.insert(
         RigidBodyBuilder::dynamic()
             .additional_mass_properties(MassProperties::new(
                 Vector::ZERO,
@@ -109,25 +123,20 @@ pub fn lock_wheel(settings: WorldSettings, moment: Real) -> (Mpc184World, JointI
                 Vector::new(0.05, 0.05, 0.1),
             ))
             .can_sleep(false),
-    );
-    let lock = (5.0f64).to_radians() as Real;
-    let hinge = Mpc184Joint::revolute(Axis::Z, Vector::ZERO).with_lock(Dof::RotZ, -lock, lock);
-    let id = world.insert_joint(None, Some(wheel), hinge).unwrap();
-    world
-        .set_load(
-            id,
-            Dof::RotZ,
-            DriveProfile {
-                t0: 0.0,
-                t1: 0.0,
-                from: moment,
-                to: moment,
-                stepped: true,
-                extend: false,
-            },
-        )
-        .unwrap();
-    (world, id)
+    )
+}
+
+/// A joint load of `value` (N or N m) from time 0 on (`FJ`, stepped).
+#[allow(dead_code, reason = "only the load tests use it")]
+pub fn constant_load(value: Real) -> DriveProfile {
+    DriveProfile {
+        t0: 0.0,
+        t1: 0.0,
+        from: value,
+        to: value,
+        stepped: true,
+        extend: false,
+    }
 }
 
 /// The friction wheel of `tests/friction_revolute.rs`: 2 kg with isotropic inertia 0.1 kg m^2,

@@ -448,7 +448,7 @@ impl LagrangeBackend {
                 redundant_rows: island.report.redundant_rows,
                 ..IslandReport::default()
             };
-            island.prepare(&self.fx, &roles, sets, h, rebuilt)?;
+            island.prepare(&roles, sets, h, rebuilt)?;
             island.choose_composition(sets.integrator, alone);
             island.last_h = h;
         }
@@ -578,24 +578,12 @@ impl LagrangeBackend {
 impl Island {
     /// A step's start: the bodies from Rapier, and the factorisation unless the last
     /// substep's still holds (same `h`, bodies as written back, structure not rebuilt).
-    fn prepare(
-        &mut self,
-        fx: &effects::Effects,
-        roles: &Roles,
-        sets: &Sets,
-        h: Real,
-        rebuilt: bool,
-    ) -> Result<(), Error> {
-        self.has_effects = fx.any(roles, &self.members);
-        self.has_elastic_stops = fx.has_elastic_stops(roles, &self.members);
+    fn prepare(&mut self, roles: &Roles, sets: &Sets, h: Real, rebuilt: bool) -> Result<(), Error> {
+        self.has_effects = roles.any(&self.members, Roles::EFFECTS);
+        self.has_elastic_stops = roles.any(&self.members, Roles::ELASTIC_STOPS);
         self.plain = !self.has_effects
             && self.springs.is_empty()
-            && !self.members.iter().any(|&j| {
-                roles
-                    .flags
-                    .get(j)
-                    .is_some_and(|f| f & Roles::REFERENCES != 0)
-            });
+            && !roles.any(&self.members, Roles::REFERENCES);
         self.watch_contacts = self
             .bodies
             .iter()

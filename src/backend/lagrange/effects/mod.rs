@@ -105,25 +105,6 @@ impl Effects {
             })
     }
 
-    /// True when some joint of `members` has behaviour the substep must look at
-    /// ([`Roles::EFFECTS`]).
-    pub(crate) fn any(&self, roles: &Roles, members: &[usize]) -> bool {
-        Self::some(roles, members, Roles::EFFECTS)
-    }
-
-    /// Some joint of `members` has an elastic stop (Lagrange method, not a screw:
-    /// [`Roles::ELASTIC_STOPS`]).
-    pub(crate) fn has_elastic_stops(&self, roles: &Roles, members: &[usize]) -> bool {
-        Self::some(roles, members, Roles::ELASTIC_STOPS)
-    }
-
-    /// Some joint of `members` has the role `bit`.
-    fn some(roles: &Roles, members: &[usize], bit: u8) -> bool {
-        members
-            .iter()
-            .any(|&j| roles.flags.get(j).is_some_and(|f| f & bit != 0))
-    }
-
     /// Elastic energy of the springs of `members` at their last evaluation (J).
     pub(crate) fn spring_energy(&self, members: &[usize]) -> Real {
         members
