@@ -759,18 +759,13 @@ impl KktSolver {
         self.nb
     }
 
-    /// Number of joints (including those without rows).
-    pub fn num_joints(&self) -> usize {
-        self.specs.len()
-    }
-
     /// Total number of constraint rows.
     pub fn num_rows(&self) -> usize {
         self.row_off[self.specs.len()]
     }
 
     /// First global row of `joint` (its rows are `row_offset(joint) .. row_offset(joint + 1)`;
-    /// `joint == num_joints()` gives [`Self::num_rows`]).
+    /// `joint == joint_specs().len()` gives [`Self::num_rows`]).
     pub fn row_offset(&self, joint: usize) -> usize {
         self.row_off[joint.min(self.specs.len())]
     }

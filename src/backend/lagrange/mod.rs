@@ -114,6 +114,17 @@ fn projection_tolerance() -> Real {
     PROJECTION_TOLERANCE.max(10.0 * Real::EPSILON)
 }
 
+/// The velocity projection refines its solve until every hard row's rate is within this of
+/// its target (m/s or rad/s; f32 builds stop at their round-off): the positions' tolerance per
+/// second (see `Island::project_velocities`).
+fn velocity_tolerance() -> Real {
+    PROJECTION_TOLERANCE.max(10.0 * Real::EPSILON)
+}
+
+/// Most refinement solves of the velocity projection per substep (see
+/// `Island::project_velocities`).
+const MAX_VELOCITY_REFINEMENTS: usize = 3;
+
 /// One jointed dynamic body as the solver sees it during a substep.
 #[derive(Clone, Copy, Debug, Default)]
 #[cfg_attr(
