@@ -581,7 +581,7 @@ impl Island {
                 };
                 worst = worst.max(self.rhs_j[r].abs());
             }
-            if worst <= tol || !(worst <= 0.5 * previous) {
+            if worst <= tol || worst.is_nan() || worst > 0.5 * previous {
                 break;
             }
             previous = worst;
