@@ -13,7 +13,8 @@ pub(crate) enum Method {
     /// The adaptive step control (step doubling, `StepControl::Adaptive`) on RATTLE or on the
     /// fourth-order composition, at dt 1/30 over the study's tolerances (the work-precision
     /// charts only); `horizon`: the velocity difference weighed over half the run (the mean
-    /// time left) instead of the step.
+    /// time left, the control the docs give for a trajectory tolerance), else over the step
+    /// alone (`-local`: the per-step control a deck's `AUTOTS` gets).
     Adaptive {
         order4: bool,
         horizon: bool,
@@ -57,15 +58,15 @@ pub(crate) const PEERS: [Method; 4] = [
 pub(crate) const ADAPTIVE: [Method; 3] = [
     Method::Adaptive {
         order4: false,
-        horizon: false,
-    },
-    Method::Adaptive {
-        order4: true,
-        horizon: false,
+        horizon: true,
     },
     Method::Adaptive {
         order4: true,
         horizon: true,
+    },
+    Method::Adaptive {
+        order4: true,
+        horizon: false,
     },
 ];
 
@@ -102,7 +103,7 @@ impl Method {
             Method::Adaptive { order4, horizon } => format!(
                 "adaptive-{}{}",
                 if order4 { "order4" } else { "rattle" },
-                if horizon { "-horizon" } else { "" }
+                if horizon { "" } else { "-local" }
             ),
             Method::Penalty(k) => format!("penalty-{k:.0e}"),
             Method::Impulse => "rapier-impulse".into(),
@@ -147,11 +148,11 @@ impl Method {
             Method::Adaptive { order4: false, .. } => RGBColor(84, 39, 143),
             Method::Adaptive {
                 order4: true,
-                horizon: false,
+                horizon: true,
             } => RGBColor(110, 112, 0),
             Method::Adaptive {
                 order4: true,
-                horizon: true,
+                horizon: false,
             } => RGBColor(0, 128, 128),
             Method::Penalty(k) if k < 1e5 => RGBColor(255, 187, 120),
             Method::Penalty(k) if k < 1e7 => RGBColor(255, 127, 14),

@@ -357,9 +357,9 @@ fn adaptive_run(
             tolerance: (tol * dt / secs) as Real,
             energy_tolerance: Real::INFINITY,
             max_substeps: 4096,
-            // `-horizon`: a velocity error grows into a phase drift over the rest of the run,
-            // weighed over the mean time left (with the step alone A02's error reached 6.5
-            // times the request).
+            // A velocity error grows into a phase drift over the rest of the run, weighed over
+            // the mean time left (`-local`, the step alone: A02's error reached 6.5 times the
+            // request).
             horizon: match method {
                 Method::Adaptive { horizon: true, .. } => (secs / 2.0) as Real,
                 _ => 0.0,

@@ -83,6 +83,7 @@ pub(crate) fn summary(
         if cfg.quick { " (--quick)" } else { "" },
         runs.len()
     );
+    adaptive_overview(&mut s, runs, refs);
     for scene in SCENES {
         let rs: Vec<&Run> = runs.iter().filter(|r| r.scene == scene).collect();
         let _ = writeln!(s, "## {}\n", scene.title(cfg));
@@ -144,6 +145,45 @@ pub(crate) fn summary(
 
 /// One method's row of a scene's table: runs, cheapest run to each IFToMM level, observed
 /// order, best error, failures.
+/// The adaptive control's honesty over the whole study: per variant, the largest achieved /
+/// requested trajectory error over its runs that ended `ok` (requests below a reference's
+/// floor left out: they cannot be judged), and where.
+fn adaptive_overview(s: &mut String, runs: &[Run], refs: &[(Scene, String, f64)]) {
+    let _ = writeln!(
+        s,
+        "Adaptive control over the whole study (achieved / requested trajectory error; see each \
+         scene's table):\n\n| method | runs ok/failed/skipped | largest achieved / requested | at |\n|---|---|---|---|"
+    );
+    for method in ADAPTIVE {
+        let mine: Vec<&Run> = runs.iter().filter(|r| r.method == method).collect();
+        if mine.is_empty() {
+            continue;
+        }
+        let floor = |r: &Run| {
+            refs.iter()
+                .find(|(sc, _, _)| *sc == r.scene)
+                .map_or(0.0, |f| f.2)
+        };
+        let worst = mine
+            .iter()
+            .filter(|r| r.ok() && r.tol.is_some_and(|t| t >= floor(r)))
+            .map(|r| (r.traj / r.tol.unwrap_or(f64::NAN), r))
+            .max_by(|a, b| a.0.total_cmp(&b.0));
+        let n = |f: &dyn Fn(&Run) -> bool| mine.iter().filter(|r| f(r)).count();
+        let _ = writeln!(
+            s,
+            "| {} | {}/{}/{} | {} | {} |",
+            method.name(),
+            n(&|r| r.ok()),
+            n(&|r| r.failed()),
+            n(&|r| r.status.starts_with("skipped")),
+            worst.map_or("-".into(), |w| format!("{:.2}", w.0)),
+            worst.map_or("-".into(), |w| format!("{} {}", w.1.scene.key(), w.1.setting())),
+        );
+    }
+    let _ = writeln!(s);
+}
+
 /// Requested against achieved for the adaptive runs of one scene, with the cheapest fixed-step
 /// run (any of this crate's methods) that reaches the achieved error.
 /// `floor`: the reference's own error (m); a request below it cannot be judged.
@@ -154,8 +194,8 @@ fn adaptive_table(s: &mut String, rs: &[&Run], floor: f64) {
     }
     let _ = writeln!(
         s,
-        "\nAdaptive step control (dt 1/30, step doubling, per-step tolerance = requested x dt / duration; \
-         `-horizon`: the velocity difference weighed over duration / 2 instead of the step):\n\n\
+        "\nAdaptive step control (dt 1/30, step doubling, per-step tolerance = requested x dt / duration, \
+         the velocity difference weighed over duration / 2; `-local`: over the step alone, as a deck's AUTOTS):\n\n\
          | method | requested (m) | achieved (m) | achieved / requested | CPU s/s | cheapest fixed step reaching it | status |\n|---|---|---|---|---|---|---|"
     );
     for r in adaptive {
