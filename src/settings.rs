@@ -111,14 +111,14 @@ pub enum StepControl {
         /// error `tol`, ask `tolerance = tol dt / T` per step with `horizon = T / 2` (the mean
         /// time left). Measured on the A02 four-bar over 10 s, fourth order, asked 1e-5 and
         /// 1e-6 m: with `horizon` 0 the error reached 4.3 and 6.5 times the request; with 5 s,
-        /// 0.29 and 0.30 times, for 1.8 and 2.0 times the CPU (`tests/adaptive_horizon.rs`;
-        /// the chart study's `adaptive-order4-horizon` runs, `docs/charts/summary.md`).
+        /// 0.37 and 0.40 times, for 1.8 and 2.2 times the CPU (`tests/adaptive_horizon.rs`;
+        /// the chart study's `adaptive-order4` runs, `docs/charts/summary.md`).
         ///
-        /// Its price on a smooth scene asked far below what the scheme reaches anyway: the
-        /// velocity term meets the position projection's own noise (its 1e-10 m tolerance
-        /// shows as velocity differences of about 1e-10 m / h between the two runs) and the
-        /// step is refined past the request (A01 asked 1e-6 m over 10 s: 1.6e-9 m for 120
-        /// times the CPU of `horizon` 0, which reached 8.3e-8 m).
+        /// Its price on the smooth scenes that the step alone already held (A01, the conical
+        /// pendulum, Bricard, asked 1e-6 m over 10 s): 1.6 to 3.3 times the CPU, for 1.7e-9,
+        /// 3.6e-10 and 1.2e-8 m. (It was 60 to 120 times while the velocity projection left
+        /// its regularisation's `O(h)` residual in the velocities, which the horizon weighed as
+        /// an error; see `tests/velocity_projection.rs`.)
         horizon: Real,
     },
 }
