@@ -178,7 +178,11 @@ fn adaptive_overview(s: &mut String, runs: &[Run], refs: &[(Scene, String, f64)]
             n(&|r| r.failed()),
             n(&|r| r.status.starts_with("skipped")),
             worst.map_or("-".into(), |w| format!("{:.2}", w.0)),
-            worst.map_or("-".into(), |w| format!("{} {}", w.1.scene.key(), w.1.setting())),
+            worst.map_or("-".into(), |w| format!(
+                "{} {}",
+                w.1.scene.key(),
+                w.1.setting()
+            )),
         );
     }
     let _ = writeln!(s);
