@@ -77,6 +77,13 @@ impl DriveProfile {
         }
     }
 
+    /// The times where the value or its slope jumps (s): the step or the ramp's start `t0`,
+    /// and the ramp's end `t1` unless the slope goes on (`extend`).
+    pub(crate) fn kinks(&self) -> impl Iterator<Item = Real> {
+        let ramp_end = !self.stepped && self.t1 > self.t0 && !self.extend;
+        core::iter::once(self.t0).chain(ramp_end.then_some(self.t1))
+    }
+
     pub(crate) fn is_finite(&self) -> bool {
         self.t0.is_finite() && self.t1.is_finite() && self.from.is_finite() && self.to.is_finite()
     }

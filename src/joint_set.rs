@@ -359,6 +359,26 @@ impl JointSet {
     }
 
     /// Every slot, by joint index.
+    /// The first kink of a drive's or a load's profile strictly inside `(after, before)` (s),
+    /// and its joint: where the prescribed motion or the load changes its slope or jumps.
+    pub(crate) fn next_kink(&mut self, after: Real, before: Real) -> Option<(Real, JointId)> {
+        let roles = self.roles();
+        roles
+            .drives
+            .iter()
+            .chain(&roles.forces)
+            .filter_map(|&j| Some((j, self.get(j)?)))
+            .flat_map(|(j, e)| {
+                e.drives
+                    .iter()
+                    .chain(&e.loads)
+                    .flat_map(|d| d.profile.kinks())
+                    .map(move |t| (t, JointId(j as u32)))
+            })
+            .filter(|&(t, _)| t > after && t < before)
+            .min_by(|a, b| a.0.total_cmp(&b.0))
+    }
+
     pub(crate) fn slots(&self) -> &[Option<JointEntry>] {
         &self.entries
     }

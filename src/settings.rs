@@ -84,11 +84,13 @@ pub enum StepControl {
     /// room (the spatial slider-crank, fourth order from one substep per 1/30 s: 5 s in 977
     /// substeps, where the first diverging run used to stop it at 0.47 s).
     ///
-    /// Events are located: a stop's impact, a lock engaging or a stick/slip change that a run
-    /// shows is bisected to the event time tolerance (`tolerance / (2 v)` for the fastest
-    /// speed `v`, and `energy_tolerance / (2 P)` for the rate `P` of the kinetic energy) and
-    /// taken in a substep of its own, the stretches before and after it by step doubling
-    /// (see [`crate::world::EventKind`] for the table, and `StepStats::last_event`).
+    /// Events are located: a stop's impact, a lock engaging, a stick/slip change or a
+    /// nonlinear table's knee that a run shows is bisected to the event time tolerance
+    /// (`tolerance / (2 v)` for the fastest speed `v`, and `energy_tolerance / (2 P)` for the
+    /// rate `P` of the kinetic energy) and taken in a substep of its own, the stretches before
+    /// and after it by step doubling; a drive's or a load's profile kink (`DJ`, `FJ`) ends a
+    /// stretch exactly at its time (see [`crate::world::EventKind`] for the table, and
+    /// `StepStats::last_event`).
     /// [`crate::Mpc184World::step_stats`] counts the steps, retries, events and substeps.
     Adaptive {
         /// Largest estimated position error per step (m).

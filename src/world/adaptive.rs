@@ -13,6 +13,11 @@
 //! | [`EventKind::Stop`]: a stop (`SECSTOP`) starts to act | a stop bit of the joint's output set that was clear |
 //! | [`EventKind::Lock`]: a lock (`SECLOCK`) engages | a DOF locked that was free |
 //! | [`EventKind::StickSlip`]: joint friction sticks or starts to slip | the friction state's `slipping` changed |
+//! | [`EventKind::Knee`]: a nonlinear spring or damper passes a table's knee | the table segment of the DOF's deflection (or rate) changed |
+//!
+//! A drive's or a load's profile kink ([`EventKind::Profile`]: a `DJ` or `FJ` step, a ramp's
+//! start or end) is known in advance: a segment ends exactly there, and the rest of the step
+//! is the next segment.
 //!
 //! the event time is bisected, as ANSYS bisects a step on a contact status change: runs from
 //! the last state without the event (the probe checkpoint) to the middle of the bracket, at the
@@ -47,6 +52,8 @@ use super::Mpc184World;
 /// | [`EventKind::Stop`] | a stop bit of the joint's output set that was clear | `tolerance / (2 v)` |
 /// | [`EventKind::Lock`] | a DOF locked that was free | and `energy_tolerance / (2 P)` |
 /// | [`EventKind::StickSlip`] | the friction state's `slipping` changed | whichever is smaller |
+/// | [`EventKind::Knee`] | the table segment of a tabled DOF's deflection (stiffness) or rate (damping) changed | |
+/// | [`EventKind::Profile`] | a drive's or load's profile kink falls inside the step | exactly (known in advance) |
 ///
 /// `v`: the fastest body's speed (its angular speed times the model size included); `P`: the
 /// largest rate of change of the kinetic energy seen while bisecting. An impact or a lock
@@ -68,6 +75,16 @@ pub enum EventKind {
     Lock,
     /// Joint friction went from sticking to slipping or back.
     StickSlip,
+    /// A nonlinear stiffness or damping table's interior point (`TB,JOIN` `JNS1..6`,
+    /// `JND1..6`) was crossed: the law's slope jumps there.
+    #[doc(alias = "TBPT")]
+    Knee,
+    /// A drive's or a joint load's profile jumps or changes its slope at this time (`DJ`,
+    /// `FJ`: a step, or a ramp's start or end). Known in advance: the step is cut there
+    /// exactly, no bisection.
+    #[doc(alias = "DJ")]
+    #[doc(alias = "FJ")]
+    Profile,
 }
 
 /// Why the adaptive control last took a try again with more substeps
@@ -101,7 +118,8 @@ pub struct StepEvent {
     /// The end of the substep that holds the event (s): the event lies in `(time - width,
     /// time]`.
     pub time: Real,
-    /// The size of that substep (s), at most the event time tolerance.
+    /// The size of that substep (s), at most the event time tolerance; 0 for a profile kink
+    /// ([`EventKind::Profile`]), which lies exactly at `time`.
     pub width: Real,
     /// The joint.
     pub joint: JointId,
@@ -122,6 +140,9 @@ struct Mark {
     /// The friction slips (`None`: no friction, or no friction state yet: before the first
     /// step, which is no event).
     slipping: Option<bool>,
+    /// Per DOF, the segment of its stiffness table holding its deflection (`k`) and of its
+    /// damping table holding its rate (`6 + k`); 0 without a table.
+    knees: [u16; 12],
 }
 
 /// The tolerances of a step (see [`StepControl::Adaptive`](crate::settings::StepControl::Adaptive)).
@@ -188,11 +209,19 @@ impl Mpc184World {
         let t0 = self.time();
         let mut done: Real = 0.0;
         let mut events = 0;
+        // The step was cut at a profile kink (taken in parts, like a located event).
+        let mut split = false;
         // The stops that acted in the parts kept: the step's output reports them all, as after
         // a step in one part.
         let mut acted: Vec<u8> = Vec::new();
         loop {
-            let span = dt - done;
+            // A drive's or load's kink inside the rest of the step ends this segment exactly
+            // there (a sliver below 1e-9 dt is left to the substep that holds it).
+            let kink = self
+                .core
+                .joints
+                .next_kink(t0 + done + 1e-9 * dt, t0 + dt - 1e-9 * dt);
+            let span = kink.map_or(dt - done, |(t, _)| t - t0 - done);
             self.save_segment();
             let marks = self.event_marks();
             let watch = (events < MAX_EVENTS).then_some(marks.as_slice());
@@ -200,7 +229,17 @@ impl Mpc184World {
                 Outcome::Kept(next) => {
                     n = next;
                     self.gather_acted(&mut acted);
-                    break;
+                    let Some((time, joint)) = kink else { break };
+                    split = true;
+                    let stats = &mut self.core.stats;
+                    stats.events += 1;
+                    stats.last_event = Some(StepEvent {
+                        time,
+                        width: 0.0,
+                        joint,
+                        kind: EventKind::Profile,
+                    });
+                    done += span;
                 }
                 Outcome::Event(h) => {
                     let (lo, hi, event) = self.locate(span, h, &marks, &c)?;
@@ -237,7 +276,7 @@ impl Mpc184World {
         }
         // The parts add up to `dt` up to round-off: the step ends where a fixed step ends.
         self.core.progress.time = t0 + dt;
-        if events > 0 {
+        if events > 0 || split {
             for (slot, bits) in acted.into_iter().enumerate() {
                 if let Some(e) = self.core.joints.get_mut(slot) {
                     for (k, flag) in e.state.at_stop.iter_mut().enumerate() {
@@ -550,11 +589,13 @@ impl Mpc184World {
                     stops: bits(&e.state.at_stop),
                     locks: bits(&e.state.locked.map(|l| l.is_some())),
                     slipping: e.state.friction.map(|f| f.slipping),
+                    knees: knees(e),
                 },
                 None => Mark {
                     stops: 0,
                     locks: 0,
                     slipping: None,
+                    knees: [0; 12],
                 },
             })
             .collect()
@@ -574,6 +615,8 @@ impl Mpc184World {
                     EventKind::Stop
                 } else if matches!((a.slipping, b.slipping), (Some(x), Some(y)) if x != y) {
                     EventKind::StickSlip
+                } else if a.knees != b.knees {
+                    EventKind::Knee
                 } else {
                     return None;
                 };
@@ -594,6 +637,41 @@ impl Mpc184World {
             })
             .collect()
     }
+}
+
+/// A joint's table segments (see [`Mark::knees`]): the DOF's deflection (measure minus
+/// reference) in its stiffness table, its rate (the output's relative velocity, frame I) in
+/// its damping table. A table extends its end segments past its ends, so its first and last
+/// points are no knees: the segment index counts the interior points below the value.
+fn knees(e: &crate::joint_set::JointEntry) -> [u16; 12] {
+    let b = &e.joint.behaviour;
+    let mut out = [0; 12];
+    if !b.has_forces() {
+        return out;
+    }
+    let o = &e.state.output;
+    let rate = [
+        o.velocity.x,
+        o.velocity.y,
+        o.velocity.z,
+        o.angular_velocity.x,
+        o.angular_velocity.y,
+        o.angular_velocity.z,
+    ];
+    let segment = |t: &crate::behaviour::Table, x: Real| {
+        let p = &t.points;
+        let interior = &p[1..p.len().saturating_sub(1).max(1)];
+        (1 + interior.partition_point(|q| q.0 < x)).min(u16::MAX as usize) as u16
+    };
+    for k in 0..6 {
+        if let Some(t) = &b.stiffness_tables[k] {
+            out[k] = segment(t, o.measure[k] - b.reference[k].unwrap_or(e.initial[k]));
+        }
+        if let Some(t) = &b.damping_tables[k] {
+            out[6 + k] = segment(t, rate[k]);
+        }
+    }
+    out
 }
 
 /// One bit per DOF.
