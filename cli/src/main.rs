@@ -652,12 +652,15 @@ fn autots_summary(model: &DeckModel, stats: &StepStats) -> String {
                 || e.joint.to_string(),
                 |j| format!("joint element {}", j.element),
             );
+            // A profile kink lies exactly at its time; a located event in its substep.
+            let when = if e.width > 0.0 {
+                format!("in ({:.9}, {:.9}] s", e.time - e.width, e.time)
+            } else {
+                format!("at {:.9} s", e.time)
+            };
             format!(
-                "; {} event(s) located, the last a {:?} at {element} in ({:.9}, {:.9}] s",
-                stats.events,
-                e.kind,
-                e.time - e.width,
-                e.time
+                "; {} event(s) located, the last a {:?} at {element} {when}",
+                stats.events, e.kind
             )
         }
         None => String::new(),
