@@ -560,17 +560,13 @@ impl Island {
         }
         kkt.solve(&mut self.rhs_b, &mut self.rhs_j)
             .map_err(|e| kkt_err(e, time))?;
-        for r in 0..self.rhs_j.len() {
-            self.impulse[r] -= self.rhs_j[r];
-        }
-        for i in 0..self.bodies.len() {
-            let x = self.rhs_b[i];
-            self.st[i].linvel = Vector::new(x[0], x[1], x[2]);
-            self.st[i].angvel = Vector::new(x[3], x[4], x[5]);
-        }
+        self.take_velocity_solve(false);
         let tol = velocity_tolerance();
         let mut previous = Real::INFINITY;
         for _ in 0..if refine { MAX_VELOCITY_REFINEMENTS } else { 0 } {
+            let Some(kkt) = self.kkt.as_ref() else {
+                break;
+            };
             row_rates(kkt, &self.jac, &self.st, &mut self.rhs_j);
             let mut worst: Real = 0.0;
             for r in 0..self.rhs_j.len() {
@@ -590,16 +586,27 @@ impl Island {
             }
             kkt.solve(&mut self.rhs_b, &mut self.rhs_j)
                 .map_err(|e| kkt_err(e, time))?;
-            for r in 0..self.rhs_j.len() {
-                self.impulse[r] -= self.rhs_j[r];
-            }
-            for i in 0..self.bodies.len() {
-                let x = self.rhs_b[i];
-                self.st[i].linvel += Vector::new(x[0], x[1], x[2]);
-                self.st[i].angvel += Vector::new(x[3], x[4], x[5]);
-            }
+            self.take_velocity_solve(true);
         }
         Ok(())
+    }
+
+    /// Books a velocity projection's multipliers (`rhs_j`) into the impulses and takes its
+    /// velocities (`rhs_b`) as the bodies', or adds them (`add`: a refinement's correction).
+    fn take_velocity_solve(&mut self, add: bool) {
+        for (impulse, l) in self.impulse.iter_mut().zip(&self.rhs_j) {
+            *impulse -= l;
+        }
+        for (s, x) in self.st.iter_mut().zip(&self.rhs_b) {
+            let (v, w) = (Vector::new(x[0], x[1], x[2]), Vector::new(x[3], x[4], x[5]));
+            if add {
+                s.linvel += v;
+                s.angvel += w;
+            } else {
+                s.linvel = v;
+                s.angvel = w;
+            }
+        }
     }
 
     /// Writes poses and velocities back to Rapier (a non-finite state is a divergence).
