@@ -166,11 +166,18 @@ impl Progress {
 /// scale of its own, and its round-off must not trip the guard.
 pub const GUARD_FLOOR: Real = 1e-6;
 
-/// The energy the loads could put into a world at rest (J): every dynamic body's weight (N,
-/// `weight`: the sum of `m |gravity scale| |g|`) over the model size, and every joint load (N
-/// or N m) over the model size or 1 rad.
-pub(crate) fn load_scale(weight: Real, joints: &JointSet, size: Real, time: Real) -> Real {
-    (weight + joints.load_magnitude(time)) * size.max(1.0)
+/// The energy the loads could put into a world at rest over the step from `time` to `end`
+/// (J): every dynamic body's weight (N, `weight`: the sum of `m |gravity scale| |g|`) over the
+/// model size, and every joint load (N or N m, the largest it takes in the step: a load that
+/// steps up within it counts) over the model size or 1 rad.
+pub(crate) fn load_scale(
+    weight: Real,
+    joints: &JointSet,
+    size: Real,
+    time: Real,
+    end: Real,
+) -> Real {
+    (weight + joints.load_magnitude(time, end)) * size.max(1.0)
 }
 
 /// The energy guard: a step whose balance (`EnergyReport::total`) grew by more than

@@ -326,12 +326,19 @@ impl JointSet {
             .fold(0.0, |a, e| a + e)
     }
 
-    /// The sum of the magnitudes of the joint loads at `time` (N or N m; the energy guard's
-    /// floor), over the joints with forces when the roles are current, else over all.
-    pub(crate) fn load_magnitude(&self, time: Real) -> Real {
+    /// The sum of the joint loads' largest magnitudes over the step from `time` to `end` (N or
+    /// N m; the energy guard's floor), over the joints with forces when the roles are current,
+    /// else over all. A profile is monotone between its values at the step's ends (one ramp or
+    /// one jump), so those two bound it.
+    pub(crate) fn load_magnitude(&self, time: Real, end: Real) -> Real {
         self.with_role(|r| &r.forces)
             .flat_map(|e| e.loads.iter())
-            .map(|d| d.profile.value_after(time).abs())
+            .map(|d| {
+                d.profile
+                    .value_after(time)
+                    .abs()
+                    .max(d.profile.value(end).abs())
+            })
             .fold(0.0, |a, e| a + e)
     }
 

@@ -654,10 +654,17 @@ impl Mpc184World {
         )
     }
 
-    /// What the loads could put into the world at rest (J; the energy guard's floor), with
-    /// the bodies' weight `weight` (N).
+    /// What the loads could put into the world at rest over the coming step (J; the energy
+    /// guard's floor), with the bodies' weight `weight` (N).
     fn load_scale(&self, weight: Real) -> Real {
-        crate::divergence::load_scale(weight, &self.core.joints, self.model_size(), self.time())
+        let t = self.time();
+        crate::divergence::load_scale(
+            weight,
+            &self.core.joints,
+            self.model_size(),
+            t,
+            t + self.core.settings.dt,
+        )
     }
 
     /// Sets the gravity (m/s^2) and books the work of the change: the gravitational energy

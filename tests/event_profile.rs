@@ -28,10 +28,8 @@ const INERTIA: Real = 0.1;
 const MOMENT: Real = 0.5;
 const T0: Real = 0.1234;
 const T1: Real = 0.2345;
-/// The wheel's initial rate (rad/s): spinning, so that the energy guard's scale is the
-/// wheel's energy and not the tiny one a load puts into a wheel at rest within a step (a fixed
-/// substep straddling the load step books its work with the trapezoid of the loads at its
-/// ends, which a body at rest does not follow).
+/// The wheel's initial rate (rad/s): spinning, so that the rates compared are of order 1
+/// from the start.
 const W0: Real = 1.0;
 
 /// The largest deviation of the wheel's rate from `exact` over 0.5 s, with the last event.
