@@ -84,7 +84,7 @@ pub struct StepStats {
     /// Why that step was cut (`None`: no cut yet).
     pub last_cut_reason: Option<CutReason>,
     /// Events located so far (each taken in a substep of its own, see
-    /// [`StepControl::Adaptive`]).
+    /// [`StepControl::Adaptive`]), and the drives' and loads' profile kinks a step was cut at.
     pub events: u64,
     /// The last event located.
     pub last_event: Option<StepEvent>,

@@ -660,7 +660,8 @@ fn knees(e: &crate::joint_set::JointEntry) -> [u16; 12] {
     ];
     let segment = |t: &crate::behaviour::Table, x: Real| {
         let p = &t.points;
-        let interior = &p[1..p.len().saturating_sub(1).max(1)];
+        // (A table has at least two points once validated; a shorter one has no interior.)
+        let interior = p.get(1..p.len().saturating_sub(1)).unwrap_or_default();
         (1 + interior.partition_point(|q| q.0 < x)).min(u16::MAX as usize) as u16
     };
     for k in 0..6 {
