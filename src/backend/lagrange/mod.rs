@@ -12,7 +12,10 @@
 //!    chord iterations on the same factorisation until `|C| < tol` on every Lagrange row, and the
 //!    correction divided by `h` is fed into the velocity;
 //! 4. rows at `q_(n+1)`, one factorisation (reused by the next substep's velocity solve), and
-//!    the velocity projection `J v = 0`.
+//!    the velocity projection `J v = 0`; in a step's last substep it is refined on the same
+//!    factorisation until every hard row holds to 1e-10 m/s (the factorisation's relative
+//!    regularisation otherwise leaves `J v = c lambda`, an O(h) velocity error on bodies of
+//!    small rotary inertia, see `Island::project_velocities`).
 //!
 //! With [`Integrator::Rattle`](crate::settings::Integrator::Rattle) the same four stages form
 //! RATTLE (second order): stage 1 kicks by `h/2` only (forces and the implicit-midpoint
