@@ -25,31 +25,25 @@ use rapier3d_mpc184::prelude::*;
 #[test]
 fn a_table_knee_is_located_to_its_time() {
     let (inertia, w0) = (0.1 as Real, 3.0 as Real);
-    let mut world = Mpc184World::new(WorldSettings {
-        dt: 1.0 / 30.0,
-        substeps: 1,
-        integrator: Integrator::Rattle,
-        control: StepControl::Adaptive {
-            tolerance: 1e-9,
-            energy_tolerance: Real::INFINITY,
-            max_substeps: 1 << 14,
-            horizon: 0.0,
-        },
-        ..WorldSettings::default()
-    });
-    world.physics.gravity = Vector::ZERO;
-    let wheel = common::wheel(&mut world);
-    world.physics.bodies[wheel].set_angvel(Vector::Z * w0, true);
     let table = Table {
         points: vec![(-1.0, -10.0), (0.2, 2.0), (1.0, 42.0)],
     };
-    let id = world
-        .insert_joint(
-            None,
-            Some(wheel),
-            Mpc184Joint::revolute(Axis::Z, Vector::ZERO).with_stiffness_table(Dof::RotZ, table),
-        )
-        .unwrap();
+    let (mut world, wheel, id) = common::free_wheel(
+        WorldSettings {
+            dt: 1.0 / 30.0,
+            substeps: 1,
+            integrator: Integrator::Rattle,
+            control: StepControl::Adaptive {
+                tolerance: 1e-9,
+                energy_tolerance: Real::INFINITY,
+                max_substeps: 1 << 14,
+                horizon: 0.0,
+            },
+            ..WorldSettings::default()
+        },
+        Mpc184Joint::revolute(Axis::Z, Vector::ZERO).with_stiffness_table(Dof::RotZ, table),
+    );
+    world.physics.bodies[wheel].set_angvel(Vector::Z * w0, true);
     let mut located = None;
     for _ in 0..3 {
         world.step().unwrap();

@@ -22,6 +22,7 @@
 
 mod common;
 
+use rapier3d_mpc184::math::rapier::dynamics::RigidBodyHandle;
 use rapier3d_mpc184::prelude::*;
 
 const INERTIA: Real = 0.1;
@@ -32,12 +33,8 @@ const T1: Real = 0.2345;
 /// from the start.
 const W0: Real = 1.0;
 
-/// The largest deviation of the wheel's rate from `exact` over 0.5 s, with the last event.
-fn run(
-    profile: DriveProfile,
-    exact: impl Fn(Real) -> Real,
-    adaptive: bool,
-) -> (Real, StepStats, JointId) {
+/// The wheel on its revolute, RATTLE at 1/30 s x 1, adaptive (1e-6 m per step) or fixed.
+fn wheel(adaptive: bool) -> (Mpc184World, RigidBodyHandle, JointId) {
     let control = if adaptive {
         StepControl::Adaptive {
             tolerance: 1e-6,
@@ -48,22 +45,25 @@ fn run(
     } else {
         StepControl::Fixed
     };
-    let mut world = Mpc184World::new(WorldSettings {
-        dt: 1.0 / 30.0,
-        substeps: 1,
-        integrator: Integrator::Rattle,
-        control,
-        ..WorldSettings::default()
-    });
-    world.physics.gravity = Vector::ZERO;
-    let wheel = common::wheel(&mut world);
-    let id = world
-        .insert_joint(
-            None,
-            Some(wheel),
-            Mpc184Joint::revolute(Axis::Z, Vector::ZERO),
-        )
-        .unwrap();
+    common::free_wheel(
+        WorldSettings {
+            dt: 1.0 / 30.0,
+            substeps: 1,
+            integrator: Integrator::Rattle,
+            control,
+            ..WorldSettings::default()
+        },
+        Mpc184Joint::revolute(Axis::Z, Vector::ZERO),
+    )
+}
+
+/// The largest deviation of the wheel's rate from `exact` over 0.5 s, with the last event.
+fn run(
+    profile: DriveProfile,
+    exact: impl Fn(Real) -> Real,
+    adaptive: bool,
+) -> (Real, StepStats, JointId) {
+    let (mut world, wheel, id) = wheel(adaptive);
     world.physics.bodies[wheel].set_angvel(Vector::Z * W0, true);
     world.set_load(id, Dof::RotZ, profile).unwrap();
     let mut worst: Real = 0.0;
@@ -148,27 +148,7 @@ fn a_drive_kink_is_a_substep_boundary() {
         stepped: false,
         extend: false,
     };
-    let mut world = Mpc184World::new(WorldSettings {
-        dt: 1.0 / 30.0,
-        substeps: 1,
-        integrator: Integrator::Rattle,
-        control: StepControl::Adaptive {
-            tolerance: 1e-6,
-            energy_tolerance: Real::INFINITY,
-            max_substeps: 64,
-            horizon: 0.0,
-        },
-        ..WorldSettings::default()
-    });
-    world.physics.gravity = Vector::ZERO;
-    let wheel = common::wheel(&mut world);
-    let id = world
-        .insert_joint(
-            None,
-            Some(wheel),
-            Mpc184Joint::revolute(Axis::Z, Vector::ZERO),
-        )
-        .unwrap();
+    let (mut world, _, id) = wheel(true);
     world.set_drive(id, Dof::RotZ, ramp).unwrap();
     let mut worst: Real = 0.0;
     for _ in 0..15 {

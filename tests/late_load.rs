@@ -22,26 +22,20 @@ use rapier3d_mpc184::prelude::*;
 
 /// The wheel's rate at the end of each stretch on `backend`.
 fn rates(backend: Backend) -> Vec<Real> {
-    let mut world = Mpc184World::new(WorldSettings {
-        dt: 1.0 / 60.0,
-        substeps: 4,
-        backend,
-        ..WorldSettings::default()
-    });
-    world.physics.gravity = Vector::ZERO;
-    let wheel = common::wheel(&mut world);
-    let id = world
-        .insert_joint(
-            None,
-            Some(wheel),
-            Mpc184Joint::revolute(Axis::Z, Vector::ZERO),
-        )
-        .unwrap();
+    let (mut world, _, id) = common::free_wheel(
+        WorldSettings {
+            dt: 1.0 / 60.0,
+            substeps: 4,
+            backend,
+            ..WorldSettings::default()
+        },
+        Mpc184Joint::revolute(Axis::Z, Vector::ZERO),
+    );
     let mut out = Vec::new();
     for load in [None, Some(0.5), None, Some(-0.25), None] {
         match load {
             Some(m) => world
-                .set_load(id, Dof::RotZ, common::constant_load(m))
+                .set_load(id, Dof::RotZ, DriveProfile::constant(m))
                 .unwrap(),
             None => world.remove_load(id, Dof::RotZ).unwrap(),
         }

@@ -27,21 +27,15 @@ use rapier3d_mpc184::prelude::*;
 #[test]
 fn a_load_stepping_up_inside_a_substep_is_no_divergence() {
     let (inertia, moment, h) = (0.1 as Real, 0.5 as Real, 1.0 / 30.0 as Real);
-    let mut world = Mpc184World::new(WorldSettings {
-        dt: h,
-        substeps: 1,
-        integrator: Integrator::Rattle,
-        ..WorldSettings::default()
-    });
-    world.physics.gravity = Vector::ZERO;
-    let wheel = common::wheel(&mut world);
-    let id = world
-        .insert_joint(
-            None,
-            Some(wheel),
-            Mpc184Joint::revolute(Axis::Z, Vector::ZERO),
-        )
-        .unwrap();
+    let (mut world, _, id) = common::free_wheel(
+        WorldSettings {
+            dt: h,
+            substeps: 1,
+            integrator: Integrator::Rattle,
+            ..WorldSettings::default()
+        },
+        Mpc184Joint::revolute(Axis::Z, Vector::ZERO),
+    );
     let step = DriveProfile {
         t0: 0.1234,
         t1: 0.1234,

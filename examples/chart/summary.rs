@@ -169,14 +169,11 @@ fn adaptive_overview(s: &mut String, runs: &[Run], refs: &[(Scene, String, f64)]
             .filter(|r| r.ok() && r.tol.is_some_and(|t| t >= floor(r)))
             .map(|r| (r.traj / r.tol.unwrap_or(f64::NAN), r))
             .max_by(|a, b| a.0.total_cmp(&b.0));
-        let n = |f: &dyn Fn(&Run) -> bool| mine.iter().filter(|r| f(r)).count();
         let _ = writeln!(
             s,
-            "| {} | {}/{}/{} | {} | {} |",
+            "| {} | {} | {} | {} |",
             method.name(),
-            n(&|r| r.ok()),
-            n(&|r| r.failed()),
-            n(&|r| r.status.starts_with("skipped")),
+            outcomes(&mine),
             worst.map_or("-".into(), |w| format!("{:.2}", w.0)),
             worst.map_or("-".into(), |w| format!(
                 "{} {}",
@@ -235,6 +232,17 @@ fn adaptive_table(s: &mut String, rs: &[&Run], floor: f64) {
     }
 }
 
+/// `ok/failed/skipped`: how many of `runs` ended each way.
+fn outcomes(runs: &[&Run]) -> String {
+    let n = |f: &dyn Fn(&Run) -> bool| runs.iter().filter(|r| f(r)).count();
+    format!(
+        "{}/{}/{}",
+        n(&|r| r.ok()),
+        n(&|r| r.failed()),
+        n(&|r| r.status.starts_with("skipped"))
+    )
+}
+
 fn method_row(s: &mut String, rs: &[&Run], method: Method) {
     let mine: Vec<&Run> = rs.iter().copied().filter(|r| r.method == method).collect();
     if mine.is_empty() {
@@ -266,15 +274,12 @@ fn method_row(s: &mut String, rs: &[&Run], method: Method) {
             )
         })
         .collect();
-    let n = |f: &dyn Fn(&Run) -> bool| mine.iter().filter(|r| f(r)).count();
     let order = observed_order(&by_substep(rs, method), 1e-9);
     let _ = writeln!(
         s,
-        "| {} | {}/{}/{} | {} | {} | {} | {order:.2} | {best} | {} |",
+        "| {} | {} | {} | {} | {} | {order:.2} | {best} | {} |",
         method.name(),
-        n(&|r| r.ok()),
-        n(&|r| r.failed()),
-        n(&|r| r.status.starts_with("skipped")),
+        outcomes(&mine),
         cheapest(1e-1),
         cheapest(1e-3),
         cheapest(1e-5),

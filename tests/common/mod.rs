@@ -106,7 +106,7 @@ pub fn lock_wheel(settings: WorldSettings, moment: Real) -> (Mpc184World, JointI
     let hinge = Mpc184Joint::revolute(Axis::Z, Vector::ZERO).with_lock(Dof::RotZ, -lock, lock);
     let id = world.insert_joint(None, Some(wheel), hinge).unwrap();
     world
-        .set_load(id, Dof::RotZ, constant_load(moment))
+        .set_load(id, Dof::RotZ, DriveProfile::constant(moment))
         .unwrap();
     (world, id)
 }
@@ -126,17 +126,22 @@ pub fn wheel(world: &mut Mpc184World) -> rapier3d_mpc184::math::rapier::dynamics
     )
 }
 
-/// A joint load of `value` (N or N m) from time 0 on (`FJ`, stepped).
-#[allow(dead_code, reason = "only the load tests use it")]
-pub fn constant_load(value: Real) -> DriveProfile {
-    DriveProfile {
-        t0: 0.0,
-        t1: 0.0,
-        from: value,
-        to: value,
-        stepped: true,
-        extend: false,
-    }
+/// The wheel ([`wheel`]) on `joint` to the ground (its node at the wheel's centre), no
+/// gravity: the world, the wheel and the joint.
+#[allow(dead_code, reason = "only the wheel tests use it")]
+pub fn free_wheel(
+    settings: WorldSettings,
+    joint: Mpc184Joint,
+) -> (
+    Mpc184World,
+    rapier3d_mpc184::math::rapier::dynamics::RigidBodyHandle,
+    JointId,
+) {
+    let mut world = Mpc184World::new(settings);
+    world.physics.gravity = Vector::ZERO;
+    let wheel = wheel(&mut world);
+    let id = world.insert_joint(None, Some(wheel), joint).unwrap();
+    (world, wheel, id)
 }
 
 /// The friction wheel of `tests/friction_revolute.rs`: 2 kg with isotropic inertia 0.1 kg m^2,
