@@ -240,7 +240,9 @@ impl Island {
     fn added_inertia(&mut self, joints: &JointSet, bodies: &RigidBodySet, h: Real) {
         let Some(kkt) = self.kkt.as_ref() else { return };
         // Per body: the summed stiffness |F| r of its joints and the longest lever arm r.
-        let mut load: Vec<(Real, Real)> = vec![(0.0, 0.0); self.st.len()];
+        let mut load = core::mem::take(&mut self.load);
+        load.clear();
+        load.resize(self.st.len(), (0.0, 0.0));
         for (k, &j) in self.blocks.iter().enumerate() {
             let Some(e) = joints.get(j) else { continue };
             let r0 = kkt.row_offset(k);
@@ -277,7 +279,7 @@ impl Island {
         // RATTLE 1e-3 of the four-bar's energy per passage at h = 1/240 s. (The first-order
         // scheme keeps it: its velocities live at half steps and it never tripped there.)
         let skip = self.second_any && self.redundant;
-        for (s, (kg, r)) in self.st.iter_mut().zip(load) {
+        for (s, &(kg, r)) in self.st.iter_mut().zip(&load) {
             if skip {
                 s.added = 0.0;
                 continue;
@@ -300,6 +302,7 @@ impl Island {
             stiffened = 0;
         }
         self.report.stiffened_bodies = stiffened;
+        self.load = load;
     }
 
     /// Counts the redundant hard rows once per topology: one factorisation without the

@@ -336,6 +336,11 @@ pub(crate) struct Island {
     /// Applied impulse per row accumulated over the current substep (N s).
     impulse: Vec<Real>,
     shift: Vec<[Real; 6]>,
+    /// Per body: the summed stiffness `|F| r` of its joints and its longest lever arm, the
+    /// added inertia's scratch (see `Island::added_inertia`; kept to save an allocation per
+    /// substep, not in a snapshot).
+    #[cfg_attr(feature = "serde-snapshot", serde(skip))]
+    load: Vec<(Real, Real)>,
     saved: Vec<(Real, Vector, Vector)>,
     /// The velocity-level limit stage found every limit far away (the position stage skips).
     limits_clear: bool,

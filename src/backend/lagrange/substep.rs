@@ -638,18 +638,25 @@ impl Island {
 fn row_rates(kkt: &KktSolver, jac: &[Real], st: &[BodyState], out: &mut [Real]) {
     for (k, spec) in kkt.joint_specs().iter().enumerate() {
         let r0 = kkt.row_offset(k);
-        for (r, rate) in out.iter_mut().enumerate().skip(r0).take(spec.rows) {
-            let jr = &jac[JAC_ROW_STRIDE * r..JAC_ROW_STRIDE * (r + 1)];
+        // Each side's velocities, read once per joint (the body states are large).
+        let sides = spec.bodies.map(|b| {
+            b.map(|i| {
+                let (v, w) = (st[i].linvel, st[i].angvel);
+                [v.x, v.y, v.z, w.x, w.y, w.z]
+            })
+        });
+        let rows = &jac[JAC_ROW_STRIDE * r0..JAC_ROW_STRIDE * (r0 + spec.rows)];
+        for (rate, jr) in out[r0..r0 + spec.rows]
+            .iter_mut()
+            .zip(rows.chunks_exact(JAC_ROW_STRIDE))
+        {
             let mut jv = 0.0;
-            for (half, body) in jr.chunks_exact(6).zip(spec.bodies) {
-                if let Some(i) = body {
-                    let s = &st[i];
-                    jv += half[0] * s.linvel.x
-                        + half[1] * s.linvel.y
-                        + half[2] * s.linvel.z
-                        + half[3] * s.angvel.x
-                        + half[4] * s.angvel.y
-                        + half[5] * s.angvel.z;
+            // An absent side's entries may hold anything (see the KKT arena's docs).
+            for (half, v) in jr.chunks_exact(6).zip(&sides) {
+                if let Some(v) = v {
+                    for (a, b) in half.iter().zip(v) {
+                        jv += a * b;
+                    }
                 }
             }
             *rate = jv;
