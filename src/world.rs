@@ -607,7 +607,13 @@ impl Mpc184World {
                 energy_tolerance,
                 max_substeps,
                 horizon,
-            } => self.step_adaptive(dt, [tolerance, energy_tolerance, horizon], max_substeps),
+                extrapolate,
+            } => self.step_adaptive(
+                dt,
+                [tolerance, energy_tolerance, horizon],
+                max_substeps,
+                extrapolate,
+            ),
         };
         let result = stepped.and_then(|()| match before {
             Some((e, floor)) => self.energy_guard(&e, floor),
@@ -942,6 +948,7 @@ fn check_control(control: StepControl) -> Result<(), Error> {
         energy_tolerance,
         max_substeps,
         horizon,
+        ..
     } = control
     {
         if !(horizon.is_finite() && horizon >= 0.0) {

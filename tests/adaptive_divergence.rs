@@ -53,6 +53,7 @@ fn the_adaptive_control_cuts_the_diverging_runs() {
             energy_tolerance: Real::INFINITY,
             max_substeps: 4096,
             horizon: 0.0,
+            extrapolate: false,
         })
         .unwrap();
     let mut reference = slider_crank(64);

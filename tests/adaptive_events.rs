@@ -65,6 +65,7 @@ fn the_lock_step_is_refined_to_the_energy_tolerance() {
         energy_tolerance: target * M * lock_angle(),
         max_substeps: 1 << 14,
         horizon: 0.0,
+        extrapolate: false,
     };
     let (err, cost, world, id) = wheel(1, control);
     let stats = world.step_stats();
@@ -104,6 +105,7 @@ fn stop_impacts_are_located() {
             energy_tolerance: Real::INFINITY,
             max_substeps: 1 << 12,
             horizon: 0.0,
+            extrapolate: false,
         },
         ..WorldSettings::default()
     });

@@ -42,6 +42,7 @@ fn run(horizon: Real) -> (Real, u64) {
             energy_tolerance: Real::INFINITY,
             max_substeps: 4096,
             horizon,
+            extrapolate: false,
         })
         .unwrap();
     let steps = (SECONDS / DT).round() as usize;
@@ -82,6 +83,7 @@ fn a_negative_or_infinite_horizon_is_refused() {
                 energy_tolerance: Real::INFINITY,
                 max_substeps: 64,
                 horizon,
+                extrapolate: false,
             })
             .unwrap_err();
         assert!(

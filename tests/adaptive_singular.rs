@@ -60,6 +60,7 @@ fn the_adaptive_control_keeps_its_tolerance_through_singular_poses() {
             energy_tolerance: Real::INFINITY,
             max_substeps: 4096,
             horizon: 0.0,
+            extrapolate: false,
         })
         .unwrap();
     let steps = (SECONDS / DT).round() as usize;

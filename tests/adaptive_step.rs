@@ -34,6 +34,7 @@ fn a_retried_step_is_the_fixed_step_bit_for_bit() {
         energy_tolerance: Real::INFINITY,
         max_substeps: 4096,
         horizon: 0.0,
+        extrapolate: false,
     };
     let half = rapier3d_mpc184::math::PI / 2.0;
     let mut adaptive =
@@ -70,6 +71,7 @@ fn the_tolerance_holds_and_the_period_follows() {
         energy_tolerance: Real::INFINITY,
         max_substeps: 4096,
         horizon: 0.0,
+        extrapolate: false,
     };
     let half = rapier3d_mpc184::math::PI / 2.0;
     let mut p = scenes::pendulum(settings(control, 4), Axis::Z, 1.0, half, 1.0, 1e-4).unwrap();

@@ -38,6 +38,7 @@ fn a_table_knee_is_located_to_its_time() {
                 energy_tolerance: Real::INFINITY,
                 max_substeps: 1 << 14,
                 horizon: 0.0,
+                extrapolate: false,
             },
             ..WorldSettings::default()
         },

@@ -51,6 +51,7 @@ fn a_lock_is_located_to_its_exact_time() {
                 energy_tolerance,
                 max_substeps: 1 << 14,
                 horizon: 0.0,
+                extrapolate: false,
             },
             ..WorldSettings::default()
         },
@@ -96,6 +97,7 @@ fn every_impact_is_located_and_the_first_at_its_time() {
             energy_tolerance: Real::INFINITY,
             max_substeps: 1 << 12,
             horizon: 0.0,
+            extrapolate: false,
         },
         ..WorldSettings::default()
     });
@@ -166,6 +168,7 @@ fn a_breakaway_is_located_at_the_friction_limit() {
                 energy_tolerance: Real::INFINITY,
                 max_substeps: 1 << 12,
                 horizon: 0.0,
+                extrapolate: false,
             },
             ..WorldSettings::default()
         },

@@ -41,6 +41,7 @@ fn wheel(adaptive: bool) -> (Mpc184World, RigidBodyHandle, JointId) {
             energy_tolerance: Real::INFINITY,
             max_substeps: 64,
             horizon: 0.0,
+            extrapolate: false,
         }
     } else {
         StepControl::Fixed

@@ -14,10 +14,13 @@ pub(crate) enum Method {
     /// fourth-order composition, at dt 1/30 over the study's tolerances (the work-precision
     /// charts only); `horizon`: the velocity difference weighed over half the run (the mean
     /// time left, the control the docs give for a trajectory tolerance), else over the step
-    /// alone (`-local`: the per-step control a deck's `AUTOTS` gets).
+    /// alone (`-local`: the per-step control a deck's `AUTOTS` gets); `extrapolate` (`-x`):
+    /// each kept doubling extrapolated locally (`StepControl::Adaptive::extrapolate`, as a
+    /// deck's `AUTOTS` does).
     Adaptive {
         order4: bool,
         horizon: bool,
+        extrapolate: bool,
     },
     Penalty(f64),
     Impulse,
@@ -55,18 +58,36 @@ pub(crate) const PEERS: [Method; 4] = [
 ];
 
 /// The adaptive variants, in the order the charts list them.
-pub(crate) const ADAPTIVE: [Method; 3] = [
+pub(crate) const ADAPTIVE: [Method; 6] = [
     Method::Adaptive {
         order4: false,
         horizon: true,
+        extrapolate: false,
     },
     Method::Adaptive {
         order4: true,
         horizon: true,
+        extrapolate: false,
     },
     Method::Adaptive {
         order4: true,
         horizon: false,
+        extrapolate: false,
+    },
+    Method::Adaptive {
+        order4: false,
+        horizon: true,
+        extrapolate: true,
+    },
+    Method::Adaptive {
+        order4: true,
+        horizon: true,
+        extrapolate: true,
+    },
+    Method::Adaptive {
+        order4: true,
+        horizon: false,
+        extrapolate: true,
     },
 ];
 
@@ -100,10 +121,15 @@ impl Method {
             Method::Lagrange => "lagrange".into(),
             Method::Rattle => "lagrange-rattle".into(),
             Method::Order4 => "lagrange-order4".into(),
-            Method::Adaptive { order4, horizon } => format!(
-                "adaptive-{}{}",
+            Method::Adaptive {
+                order4,
+                horizon,
+                extrapolate,
+            } => format!(
+                "adaptive-{}{}{}",
                 if order4 { "order4" } else { "rattle" },
-                if horizon { "" } else { "-local" }
+                if horizon { "" } else { "-local" },
+                if extrapolate { "-x" } else { "" }
             ),
             Method::Penalty(k) => format!("penalty-{k:.0e}"),
             Method::Impulse => "rapier-impulse".into(),
@@ -145,15 +171,36 @@ impl Method {
             Method::Lagrange => RGBColor(31, 119, 180),
             Method::Rattle => RGBColor(148, 103, 189),
             Method::Order4 => RGBColor(188, 189, 34),
-            Method::Adaptive { order4: false, .. } => RGBColor(84, 39, 143),
+            Method::Adaptive {
+                order4: false,
+                extrapolate: false,
+                ..
+            } => RGBColor(84, 39, 143),
+            Method::Adaptive {
+                order4: false,
+                extrapolate: true,
+                ..
+            } => RGBColor(197, 27, 125),
             Method::Adaptive {
                 order4: true,
                 horizon: true,
+                extrapolate: false,
             } => RGBColor(110, 112, 0),
             Method::Adaptive {
                 order4: true,
+                horizon: true,
+                extrapolate: true,
+            } => RGBColor(230, 97, 1),
+            Method::Adaptive {
+                order4: true,
                 horizon: false,
+                extrapolate: false,
             } => RGBColor(0, 128, 128),
+            Method::Adaptive {
+                order4: true,
+                horizon: false,
+                extrapolate: true,
+            } => RGBColor(1, 102, 94),
             Method::Penalty(k) if k < 1e5 => RGBColor(255, 187, 120),
             Method::Penalty(k) if k < 1e7 => RGBColor(255, 127, 14),
             Method::Penalty(_) => RGBColor(140, 86, 75),

@@ -364,6 +364,13 @@ fn adaptive_run(
                 Method::Adaptive { horizon: true, .. } => (secs / 2.0) as Real,
                 _ => 0.0,
             },
+            extrapolate: matches!(
+                method,
+                Method::Adaptive {
+                    extrapolate: true,
+                    ..
+                }
+            ),
         })
         .ok()?;
     let (cpu, traj, energy, gap, status) = simulate(

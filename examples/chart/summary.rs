@@ -196,7 +196,7 @@ fn adaptive_table(s: &mut String, rs: &[&Run], floor: f64) {
     let _ = writeln!(
         s,
         "\nAdaptive step control (dt 1/30, step doubling, per-step tolerance = requested x dt / duration, \
-         the velocity difference weighed over duration / 2; `-local`: over the step alone, as a deck's AUTOTS):\n\n\
+         the velocity difference weighed over duration / 2; `-local`: over the step alone; `-x`: each kept doubling extrapolated locally; a deck's AUTOTS is `-local-x`):\n\n\
          | method | requested (m) | achieved (m) | achieved / requested | CPU s/s | cheapest fixed step reaching it | status |\n|---|---|---|---|---|---|---|"
     );
     for r in adaptive {

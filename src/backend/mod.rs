@@ -267,6 +267,16 @@ impl JointBackend {
         }
     }
 
+    /// Puts the bodies back onto the constraints after the adaptive control moved them (its
+    /// local extrapolation; only on schemes of order 2 or more, so only on the Lagrange
+    /// backend: the Rapier backends are first order and left as they are).
+    pub(crate) fn settle(&mut self, sets: &mut Sets) -> Result<(), Error> {
+        match self {
+            JointBackend::Lagrange(l) => l.settle(sets),
+            JointBackend::Rapier(_) => Ok(()),
+        }
+    }
+
     /// The step needs the reactions whatever the output level: on the Rapier backends a joint
     /// with friction (its normal force is the last reaction) or a drive (its work is booked
     /// from its reaction). The Lagrange backend takes both from its own multipliers.

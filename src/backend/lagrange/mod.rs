@@ -556,6 +556,15 @@ impl LagrangeBackend {
         }
     }
 
+    /// Puts every island's bodies back onto the constraints after the adaptive control moved
+    /// them (see [`Island::settle`]).
+    pub(crate) fn settle(&mut self, sets: &mut Sets) -> Result<(), Error> {
+        for island in &mut self.islands {
+            island.settle(sets.joints, sets.physics, sets.time)?;
+        }
+        Ok(())
+    }
+
     /// The diagnostics.
     pub(crate) fn diagnostics(&self) -> &LagrangeDiagnostics {
         &self.diagnostics

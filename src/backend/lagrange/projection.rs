@@ -6,6 +6,7 @@
 use crate::error::Error;
 use crate::joint_set::JointSet;
 use crate::math::rapier::dynamics::RigidBodySet;
+use crate::math::rapier::pipeline::PhysicsWorld;
 use crate::math::{Real, Vector};
 use crate::solver::kkt::JAC_ROW_STRIDE;
 
@@ -342,5 +343,75 @@ impl Island {
             residual = residual.max(dev.abs());
         }
         residual
+    }
+}
+
+impl Island {
+    /// Puts the island's bodies back onto the constraints after something outside the
+    /// integrator moved them (the adaptive control's local extrapolation, see
+    /// [`StepControl::Adaptive`](crate::settings::StepControl::Adaptive)), and writes them
+    /// back: the positions by chord steps along `M~^-1 J^T` at the moved state until every
+    /// hard row holds to the projection tolerance (penalty rows keep their deflection: it is
+    /// physical), then the velocities by the refined projection `J v = rate`. Nothing is fed
+    /// into the velocities and nothing is booked: the substep's impulses (the reactions and
+    /// the added inertia read them), the warm start's multipliers and the energy ledger stay
+    /// as the last substep left them. An island that sleeps is left alone.
+    pub(super) fn settle(
+        &mut self,
+        joints: &JointSet,
+        physics: &mut PhysicsWorld,
+        time: Real,
+    ) -> Result<(), Error> {
+        if self.kkt.is_none() || self.bodies.iter().all(|b| physics.bodies[*b].is_sleeping()) {
+            return Ok(());
+        }
+        let h = self.last_h;
+        let impulse = self.impulse.clone();
+        self.gather(&physics.bodies, physics.gravity);
+        self.rows(joints, &physics.bodies, h, true);
+        self.factor(joints, &physics.bodies, h, time)?;
+        let tol = projection_tolerance();
+        let mut previous = Real::INFINITY;
+        for _ in 0..MAX_PROJECTION_ITERATIONS {
+            self.eval_rows(joints, &physics.bodies, Eval::Values);
+            let mut residual: Real = 0.0;
+            for r in 0..self.value.len() {
+                let dev = if self.penalty[r] { 0.0 } else { self.value[r] };
+                residual = residual.max(dev.abs());
+                self.rhs_j[r] = -dev;
+            }
+            // A chord step that does not shrink the residual stops it (a singular pose: the
+            // next substep's projection, with its fallback, takes over).
+            if residual <= tol || residual >= previous || residual.is_nan() {
+                break;
+            }
+            previous = residual;
+            for b in self.rhs_b.iter_mut() {
+                *b = [0.0; 6];
+            }
+            let Some(kkt) = self.kkt.as_ref() else { break };
+            kkt.solve(&mut self.rhs_b, &mut self.rhs_j)
+                .map_err(|e| kkt_err(e, time))?;
+            for (s, x) in self.st.iter_mut().zip(&self.rhs_b) {
+                displace(
+                    s,
+                    Vector::new(x[0], x[1], x[2]),
+                    Vector::new(x[3], x[4], x[5]),
+                );
+            }
+        }
+        for s in self.st.iter_mut() {
+            s.refresh_inertia();
+        }
+        self.rows(joints, &physics.bodies, h, true);
+        self.factor(joints, &physics.bodies, h, time)?;
+        for (x, s) in self.rhs_b.iter_mut().zip(&self.st) {
+            let (mv, mw) = (s.linvel * s.mass, s.inertia * s.angvel + s.angvel * s.added);
+            *x = [mv.x, mv.y, mv.z, mw.x, mw.y, mw.z];
+        }
+        self.project_velocities(time, true)?;
+        self.impulse = impulse;
+        self.fresh_values = false;
+        self.write_back(physics, time)
     }
 }

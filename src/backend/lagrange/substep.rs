@@ -540,7 +540,7 @@ impl Island {
     /// position projection lands on the constraints whatever the velocity's component along
     /// them (the positions converged at orders 2.00 and 4.0 with the residual left in every
     /// substep), and refining every substep cost 10 % of the mixed scene's step.
-    fn project_velocities(&mut self, time: Real, refine: bool) -> Result<(), Error> {
+    pub(super) fn project_velocities(&mut self, time: Real, refine: bool) -> Result<(), Error> {
         let Some(kkt) = self.kkt.as_ref() else {
             return Ok(());
         };
@@ -610,7 +610,11 @@ impl Island {
     }
 
     /// Writes poses and velocities back to Rapier (a non-finite state is a divergence).
-    fn write_back(&mut self, physics: &mut PhysicsWorld, time: Real) -> Result<(), Error> {
+    pub(super) fn write_back(
+        &mut self,
+        physics: &mut PhysicsWorld,
+        time: Real,
+    ) -> Result<(), Error> {
         for i in 0..self.bodies.len() {
             let b = self.bodies[i];
             let s = self.st[i];

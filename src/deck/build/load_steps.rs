@@ -60,6 +60,10 @@ impl DeckModel {
                 energy_tolerance: Real::INFINITY,
                 max_substeps,
                 horizon: 0.0,
+                // ANSYS keeps the integrator's own result; a second- or fourth-order run of a
+                // deck keeps the extrapolated one (first order: unchanged), more accurate for
+                // the same substeps (see `StepControl::Adaptive::extrapolate`).
+                extrapolate: true,
             },
             None => StepControl::Fixed,
         };
