@@ -19,3 +19,53 @@ pub use rapier::math::{Matrix, Pose, Real, Rotation, Vector};
 
 /// The constant pi in [`Real`] precision.
 pub const PI: Real = core::f64::consts::PI as Real;
+
+/// The rotation vector (axis times angle, rad, world frame) of the turn from `from` to `to`,
+/// `to = exp(turn) from`: the shorter of the two arcs (a unit quaternion and its negative are
+/// the same rotation), and exact for small turns (`Rotation::to_scaled_axis` returns zero
+/// below 2e-8 rad, and the long way round when the quotient's scalar part is negative).
+pub fn turn_between(from: Rotation, to: Rotation) -> Vector {
+    let d = to * from.inverse();
+    let d = if d.w < 0.0 { -d } else { d };
+    let v = Vector::new(d.x, d.y, d.z);
+    let s = v.length();
+    if s > 0.0 {
+        v * (2.0 * s.atan2(d.w) / s)
+    } else {
+        Vector::ZERO
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A turn of 1e-9 rad comes back to round-off (it was zero through `to_scaled_axis`), and
+    /// a turn of 3 rad stored with a negative scalar part comes back as 3 rad about the same
+    /// axis, not as `2 pi - 3` the other way.
+    #[test]
+    fn turn_between_is_the_short_arc_and_exact_when_small() {
+        let from = Rotation::from_scaled_axis(Vector::new(0.3, -0.2, 0.9));
+        let axis = Vector::new(1.0, 2.0, -2.0) / 3.0;
+        for angle in [1e-9, 0.5, 3.0] {
+            let to = Rotation::from_scaled_axis(axis * angle) * from;
+            for q in [to, -to] {
+                let turn = turn_between(from, q);
+                // f32 builds: 1e-9 rad is far below their round-off in the quaternions.
+                let tol = if Real::EPSILON < 1e-10 {
+                    1e-12 * angle.max(1e-3)
+                } else {
+                    1e-6
+                };
+                assert!(
+                    (turn - axis * angle).length() <= tol,
+                    "turn {turn:?} for {angle} rad"
+                );
+            }
+        }
+        if Real::EPSILON < 1e-10 {
+            let small = Rotation::from_scaled_axis(axis * 1e-9) * from;
+            assert_eq!((small * from.inverse()).to_scaled_axis(), Vector::ZERO);
+        }
+    }
+}

@@ -54,7 +54,7 @@ impl StepStart {
         let mut w = 0.0;
         for &(h, f, tau, c0, q0) in &self.forced {
             let Some(rb) = bodies.get(h) else { continue };
-            let turn = (rb.position().rotation * q0.inverse()).to_scaled_axis();
+            let turn = crate::math::turn_between(q0, rb.position().rotation);
             w += f.dot(rb.center_of_mass() - c0) + tau.dot(turn);
         }
         if !self.kinematic {

@@ -433,7 +433,7 @@ impl Mpc184World {
         for (a, b) in coarse.iter().zip(self.dynamic_states()) {
             let rb = &mut self.physics.bodies[b.0];
             let com = b.1 + (b.1 - a.1) * k;
-            let turn = (b.2 * a.2.inverse()).to_scaled_axis();
+            let turn = crate::math::turn_between(a.2, b.2);
             let rotation = (Rotation::from_scaled_axis(turn * k) * b.2).normalize();
             let local_com = rb.mass_properties().local_mprops.local_com;
             rb.set_position(
