@@ -197,25 +197,36 @@ fn adaptive_table(s: &mut String, rs: &[&Run], floor: f64) {
         s,
         "\nAdaptive step control (dt 1/30, step doubling, per-step tolerance = requested x dt / duration, \
          the velocity difference weighed over duration / 2; `-local`: over the step alone; `-x`: each kept doubling extrapolated locally; a deck's AUTOTS is `-local-x`):\n\n\
-         | method | requested (m) | achieved (m) | achieved / requested | CPU s/s | cheapest fixed step reaching it | status |\n|---|---|---|---|---|---|---|"
+         | method | requested (m) | achieved (m) | achieved / requested | CPU s/s | cheapest fixed step reaching it (CPU / its) | the same on the Lagrange backend | status |\n|---|---|---|---|---|---|---|---|"
     );
     for r in adaptive {
         let tol = r.tol.unwrap_or(f64::NAN);
-        let fixed = rs
-            .iter()
-            .filter(|f| {
-                f.tol.is_none()
-                    && f.ok()
-                    && f.traj <= r.traj
-                    && !matches!(f.method, Method::MuJoCo { .. })
-            })
-            .min_by(|a, b| a.cpu.total_cmp(&b.cpu))
-            .map_or("none".to_string(), |f| {
-                format!("{} {} ({:.2e} s/s)", f.method.name(), f.setting(), f.cpu)
-            });
+        // The cheapest fixed-step run of this crate (of its Lagrange backend) reaching the
+        // achieved error, and the adaptive run's CPU over its.
+        let cheapest = |lagrange: bool| {
+            rs.iter()
+                .filter(|f| {
+                    f.tol.is_none()
+                        && f.ok()
+                        && f.traj <= r.traj
+                        && !matches!(f.method, Method::MuJoCo { .. })
+                        && (!lagrange || f.method.backend() == Backend::Lagrange)
+                })
+                .min_by(|a, b| a.cpu.total_cmp(&b.cpu))
+                .map_or("none".to_string(), |f| {
+                    format!(
+                        "{} {} ({:.2e} s/s; {:.2})",
+                        f.method.name(),
+                        f.setting(),
+                        f.cpu,
+                        r.cpu / f.cpu
+                    )
+                })
+        };
+        let (fixed, lagrange) = (cheapest(false), cheapest(true));
         let _ = writeln!(
             s,
-            "| {} | {tol:.0e} | {:.1e} | {:.2} | {:.2e} | {fixed} | {} |",
+            "| {} | {tol:.0e} | {:.1e} | {:.2} | {:.2e} | {fixed} | {lagrange} | {} |",
             r.method.name(),
             r.traj,
             r.traj / tol,
