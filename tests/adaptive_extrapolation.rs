@@ -12,10 +12,10 @@
 //! Checked:
 //! - honesty: with extrapolation the crank tip stays within 3 x 1e-5 m of the exact motion
 //!   (the bound), and at least 5 times closer than the run without it, which the
-//!   step-only control lets reach 5 times the request. Measured: 3.0e-6 m (0.30 of the
-//!   request) for 4961 substeps, against 5.0e-5 m for 5393. The margin of 3 on the gain:
+//!   step-only control lets reach 5 times the request. Measured: 3.2e-6 m (0.32 of the
+//!   request) for 4835 substeps, against 5.0e-5 m for 5393. The margin of 3 on the gain:
 //!   a run's error moves by tens of percent with where its steps are cut, the measured gain
-//!   is 17;
+//!   is 16;
 //! - the extrapolated states lie on the constraints: the joints' gaps stay within twice the
 //!   projection tolerance (1e-10 m) after every step, as without extrapolation (9.9e-11 m
 //!   both; the extrapolation alone, without putting the bodies back, leaves

@@ -380,9 +380,17 @@ impl Island {
                 residual = residual.max(dev.abs());
                 self.rhs_j[r] = -dev;
             }
-            // A chord step that does not shrink the residual stops it (a singular pose: the
-            // next substep's projection, with its fallback, takes over).
-            if residual <= tol || residual >= previous || residual.is_nan() {
+            if residual <= tol {
+                break;
+            }
+            // A chord step that does not shrink the residual is undone and stops it (a
+            // singular pose: the next substep's projection, with its fallback, takes over).
+            if residual >= previous || residual.is_nan() {
+                if previous.is_finite() {
+                    for (s, b) in self.st.iter_mut().zip(&self.backup) {
+                        (s.pose, s.com) = *b;
+                    }
+                }
                 break;
             }
             previous = residual;
@@ -392,6 +400,9 @@ impl Island {
             let Some(kkt) = self.kkt.as_ref() else { break };
             kkt.solve(&mut self.rhs_b, &mut self.rhs_j)
                 .map_err(|e| kkt_err(e, time))?;
+            for (b, s) in self.backup.iter_mut().zip(&self.st) {
+                *b = (s.pose, s.com);
+            }
             for (s, x) in self.st.iter_mut().zip(&self.rhs_b) {
                 displace(
                     s,
