@@ -94,6 +94,11 @@ struct RunArgs {
     /// joints) instead of holding their spin at zero rate (the default on the Lagrange backend).
     #[arg(long)]
     keep_idle_modes: bool,
+    /// With `AUTOTS`, keep the integrator's own result at each step, as ANSYS reports it,
+    /// instead of the locally extrapolated one (second and fourth order only: the two runs of
+    /// the step doubling combined to take out the leading error term).
+    #[arg(long)]
+    no_extrapolate: bool,
     /// Also write a self-contained HTML view of the run to FILE (3D bodies and joint frames,
     /// time slider and playback, events, time histories; no network needed).
     #[arg(long, value_name = "FILE")]
@@ -227,6 +232,7 @@ fn default_job() -> Result<(), Failure> {
         every: None,
         quiet: false,
         keep_idle_modes: false,
+        no_extrapolate: false,
         // The main job's view: open it in a browser.
         html: Some(default_out(Path::new(DEFAULT_NAME)).join("view.html")),
     };
@@ -411,6 +417,7 @@ fn run(deck: &Deck, args: &RunArgs, out: &Path) -> Result<Summary, Failure> {
             substeps: args.substeps as usize,
             integrator: args.integrator.into(),
             remove_idle_modes: !args.keep_idle_modes,
+            extrapolate: !args.no_extrapolate,
         },
     )?;
     if !args.quiet {

@@ -61,9 +61,10 @@ impl DeckModel {
                 max_substeps,
                 horizon: 0.0,
                 // ANSYS keeps the integrator's own result; a second- or fourth-order run of a
-                // deck keeps the extrapolated one (first order: unchanged), more accurate for
-                // the same substeps (see `StepControl::Adaptive::extrapolate`).
-                extrapolate: true,
+                // deck keeps the extrapolated one unless built without (first order:
+                // unchanged), more accurate for the same substeps (see
+                // `StepControl::Adaptive::extrapolate`).
+                extrapolate: self.extrapolate,
             },
             None => StepControl::Fixed,
         };

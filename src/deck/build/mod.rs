@@ -92,6 +92,11 @@ pub struct BuildOptions {
     /// Lagrange backend each gets a spin row, on the Rapier backends it is only reported (a
     /// note). Either way they are listed in [`DeckModel::idle_modes`].
     pub remove_idle_modes: bool,
+    /// `AUTOTS` keeps the locally extrapolated result of each step (default on; see
+    /// [`StepControl::Adaptive`](crate::settings::StepControl::Adaptive)'s `extrapolate`:
+    /// second- and fourth-order runs only). Off: the integrator's own result, as ANSYS
+    /// reports it.
+    pub extrapolate: bool,
 }
 
 impl Default for BuildOptions {
@@ -101,6 +106,7 @@ impl Default for BuildOptions {
             substeps: 4,
             integrator: crate::world::Integrator::default(),
             remove_idle_modes: true,
+            extrapolate: true,
         }
     }
 }
@@ -234,6 +240,8 @@ pub struct DeckModel {
     forced_bodies: BTreeSet<usize>,
     /// `ANTYPE,STATIC`: every step is a position solve ([`Mpc184World::static_step`]).
     static_run: bool,
+    /// [`BuildOptions::extrapolate`].
+    extrapolate: bool,
 }
 
 fn err(deck: &Deck, line: usize, command: &str, kind: DeckErrorKind) -> Error {
@@ -386,6 +394,7 @@ impl DeckModel {
             prev_acel: [0.0; 3],
             forced_bodies: BTreeSet::new(),
             static_run,
+            extrapolate: options.extrapolate,
         };
         // Gravity at time 0 (a stepped ACEL of the first load step acts from the start).
         if let Some(ls) = deck.load_steps.first()
