@@ -5,7 +5,9 @@
 //!
 //! A step of `dt` is walked in segments. A segment runs from the current time to the step's
 //! end by step doubling (the `n` and `2 n` runs from the segment's start, the segment
-//! checkpoint restoring it bit for bit). When either run shows an *event*, an onset that was
+//! checkpoint restoring it bit for bit); with `extrapolate`, a kept doubling of a scheme of
+//! order `p >= 2` moves the bodies by `1 / (2^p - 1)` of the two runs' difference and puts
+//! them back onto the constraints (local extrapolation, see `Mpc184World::extrapolate`). When either run shows an *event*, an onset that was
 //! not there at the segment's start:
 //!
 //! | event | seen as |

@@ -53,7 +53,7 @@
 //! | [`topology`] | body index and KKT structure, sleeping islands, the integrator per island |
 //! | [`assemble`] | body states from Rapier, row evaluation, Jacobian, compliance, mass blocks, factorisation |
 //! | [`substep`] | the stages of one substep |
-//! | [`projection`] | the position projection (warm start, chord iterations, damped Gauss-Newton) |
+//! | [`projection`] | the position projection (warm start, chord iterations, damped Gauss-Newton), and the settle onto the constraints after the adaptive control's extrapolation |
 //! | [`drives`] | drive targets per substep and the work of the drives |
 //! | [`effects`] | joint behaviour: springs, dampers, loads, stops, locks, friction, the energy-consistent impact |
 
