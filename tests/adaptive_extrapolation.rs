@@ -28,7 +28,6 @@ mod common;
 
 use rapier3d_mpc184::lagrange::PROJECTION_TOLERANCE;
 use rapier3d_mpc184::prelude::*;
-use rapier3d_mpc184::studies::benchmarks;
 
 const DT: Real = 1.0 / 30.0;
 const SECONDS: Real = 10.0;
@@ -44,22 +43,7 @@ struct Outcome {
 }
 
 fn run(integrator: Integrator, extrapolate: bool) -> Outcome {
-    let settings = WorldSettings {
-        dt: DT,
-        substeps: 1,
-        integrator,
-        ..Default::default()
-    };
-    let mut b = benchmarks::four_bar_parallelogram(settings).unwrap();
-    b.world
-        .set_step_control(StepControl::Adaptive {
-            tolerance: REQUESTED * DT / SECONDS,
-            energy_tolerance: Real::INFINITY,
-            max_substeps: 4096,
-            horizon: 0.0,
-            extrapolate,
-        })
-        .unwrap();
+    let mut b = common::four_bar_adaptive(integrator, DT, [REQUESTED, SECONDS, 0.0], extrapolate);
     let steps = (SECONDS / DT).round() as usize;
     let (mut worst, mut gap): (Real, Real) = (0.0, 0.0);
     for tip in common::four_bar_tips(DT, steps) {

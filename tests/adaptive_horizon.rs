@@ -9,18 +9,17 @@
 //!
 //! Checked: with `horizon` = 5 s (the mean time left) the crank tip stays within 3 x 1e-5 m of
 //! the exact motion all along (the honesty target), and the largest error is at least
-//! 3 times below the run with `horizon` = 0 (the step alone). Measured: 3.8e-6 m (0.38 of the
-//! request) for 9351 substeps, against 4.3e-5 m (4.3 times the request) for 5187 with the
+//! 3 times below the run with `horizon` = 0 (the step alone). Measured: 3.4e-6 m (0.34 of the
+//! request) for 8976 substeps, against 5.0e-5 m (5.0 times the request) for 5393 with the
 //! step alone (before the velocity projection was refined at each step's end: 2.9e-6 m for
 //! 9489, 4.3e-5 m for 5211). The margin of 3 on both: the error of a run moves with where its
-//! steps are cut, by tens of percent between nearby requests, far less than the factor 11
+//! steps are cut, by tens of percent between nearby requests, far less than the factor 15
 //! measured.
 #![cfg(feature = "f64")]
 
 mod common;
 
 use rapier3d_mpc184::prelude::*;
-use rapier3d_mpc184::studies::benchmarks;
 
 const DT: Real = 1.0 / 30.0;
 const SECONDS: Real = 10.0;
@@ -29,22 +28,12 @@ const REQUESTED: Real = 1e-5;
 /// The largest distance of the crank tip from the exact motion over the run, and the
 /// substeps it took, with the horizon `horizon` (s).
 fn run(horizon: Real) -> (Real, u64) {
-    let settings = WorldSettings {
-        dt: DT,
-        substeps: 1,
-        integrator: Integrator::Composition4,
-        ..Default::default()
-    };
-    let mut b = benchmarks::four_bar_parallelogram(settings).unwrap();
-    b.world
-        .set_step_control(StepControl::Adaptive {
-            tolerance: REQUESTED * DT / SECONDS,
-            energy_tolerance: Real::INFINITY,
-            max_substeps: 4096,
-            horizon,
-            extrapolate: false,
-        })
-        .unwrap();
+    let mut b = common::four_bar_adaptive(
+        Integrator::Composition4,
+        DT,
+        [REQUESTED, SECONDS, horizon],
+        false,
+    );
     let steps = (SECONDS / DT).round() as usize;
     let mut worst: Real = 0.0;
     for tip in common::four_bar_tips(DT, steps) {

@@ -53,16 +53,12 @@ fn a_coarse_fixed_step_falls_back_at_the_singular_pose() {
 #[test]
 fn the_adaptive_control_keeps_its_tolerance_through_singular_poses() {
     let requested = 1e-4;
-    let mut b = benchmarks::four_bar_parallelogram(settings(1)).unwrap();
-    b.world
-        .set_step_control(StepControl::Adaptive {
-            tolerance: requested * DT / SECONDS,
-            energy_tolerance: Real::INFINITY,
-            max_substeps: 4096,
-            horizon: 0.0,
-            extrapolate: false,
-        })
-        .unwrap();
+    let mut b = common::four_bar_adaptive(
+        Integrator::Composition4,
+        DT,
+        [requested, SECONDS, 0.0],
+        false,
+    );
     let steps = (SECONDS / DT).round() as usize;
     let (mut worst, mut projection_cuts): (Real, u32) = (0.0, 0);
     for tip in common::four_bar_tips(DT, steps) {

@@ -217,3 +217,33 @@ pub fn four_bar_tips(dt: Real, steps: usize) -> Vec<Vector> {
     }
     tips
 }
+
+/// The A02 four-bar at `dt`, one substep to start with, under the adaptive control as the
+/// chart study asks a run of `seconds` for `requested` (m): `requested dt / seconds` per step,
+/// at most 4096 substeps per step, the velocity difference weighed over `horizon` (s).
+#[cfg(feature = "f64")]
+#[allow(dead_code, reason = "only the A02 adaptive tests use it")]
+pub fn four_bar_adaptive(
+    integrator: Integrator,
+    dt: Real,
+    [requested, seconds, horizon]: [Real; 3],
+    extrapolate: bool,
+) -> rapier3d_mpc184::studies::benchmarks::Benchmark {
+    let settings = WorldSettings {
+        dt,
+        substeps: 1,
+        integrator,
+        ..Default::default()
+    };
+    let mut b = rapier3d_mpc184::studies::benchmarks::four_bar_parallelogram(settings).unwrap();
+    b.world
+        .set_step_control(StepControl::Adaptive {
+            tolerance: requested * dt / seconds,
+            energy_tolerance: Real::INFINITY,
+            max_substeps: 4096,
+            horizon,
+            extrapolate,
+        })
+        .unwrap();
+    b
+}

@@ -118,10 +118,10 @@ fn projection_tolerance() -> Real {
 }
 
 /// The velocity projection refines its solve until every hard row's rate is within this of
-/// its target (m/s or rad/s; f32 builds stop at their round-off): the positions' tolerance per
-/// second (see `Island::project_velocities`).
+/// its target (m/s or rad/s): the positions' tolerance per second (see
+/// `Island::project_velocities`).
 fn velocity_tolerance() -> Real {
-    PROJECTION_TOLERANCE.max(10.0 * Real::EPSILON)
+    projection_tolerance()
 }
 
 /// Most refinement solves of the velocity projection per substep (see

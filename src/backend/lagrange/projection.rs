@@ -371,9 +371,13 @@ impl Island {
         self.rows(joints, &physics.bodies, h, true);
         self.factor(joints, &physics.bodies, h, time)?;
         let tol = projection_tolerance();
+        // `previous` stays infinite until a chord step moves the bodies.
         let mut previous = Real::INFINITY;
-        for _ in 0..MAX_PROJECTION_ITERATIONS {
-            self.eval_rows(joints, &physics.bodies, Eval::Values);
+        for it in 0..MAX_PROJECTION_ITERATIONS {
+            // The rows above evaluated the values at the moved state already.
+            if it > 0 {
+                self.eval_rows(joints, &physics.bodies, Eval::Values);
+            }
             let mut residual: Real = 0.0;
             for r in 0..self.value.len() {
                 let dev = if self.penalty[r] { 0.0 } else { self.value[r] };
@@ -411,11 +415,14 @@ impl Island {
                 );
             }
         }
-        for s in self.st.iter_mut() {
-            s.refresh_inertia();
+        // The rows and factorisation at the settled state (those above hold if nothing moved).
+        if previous.is_finite() {
+            for s in self.st.iter_mut() {
+                s.refresh_inertia();
+            }
+            self.rows(joints, &physics.bodies, h, true);
+            self.factor(joints, &physics.bodies, h, time)?;
         }
-        self.rows(joints, &physics.bodies, h, true);
-        self.factor(joints, &physics.bodies, h, time)?;
         for (x, s) in self.rhs_b.iter_mut().zip(&self.st) {
             let (mv, mw) = (s.linvel * s.mass, s.inertia * s.angvel + s.angvel * s.added);
             *x = [mv.x, mv.y, mv.z, mw.x, mw.y, mw.z];
