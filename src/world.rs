@@ -628,7 +628,9 @@ impl Mpc184World {
     /// The energy guard after a step (see [`crate::divergence`]): the balance may not have
     /// grown by more than `energy_growth` of the scale (taken with the state after the step
     /// too, so that a step from rest is measured against what it set in motion); the joint
-    /// blamed is one on the body with the largest kinetic energy now.
+    /// blamed is the one on the body with the largest kinetic energy now whose two sides turn
+    /// fastest against each other (an unstable spring between two bodies, not the hinge that
+    /// carries both).
     fn energy_guard(&mut self, before: &EnergyReport, floor: Real) -> Result<(), Error> {
         let after = self.energy();
         let scale = self.core.progress.scale_with(&after, floor);
@@ -647,7 +649,7 @@ impl Mpc184World {
                     })
                     .max_by(|a, b| a.1.total_cmp(&b.1))
                     .map(|(h, _)| h);
-                let joint = hottest.and_then(|h| self.core.joints.attached_to(h).first().copied());
+                let joint = hottest.and_then(|h| self.fastest_joint_on(h));
                 let body = hottest.map_or_else(String::new, |h| {
                     format!(" (fastest body {:?})", h.into_raw_parts())
                 });
@@ -658,6 +660,26 @@ impl Mpc184World {
                 }
             },
         )
+    }
+
+    /// Of the joints on `body`, the one whose sides turn fastest against each other (the
+    /// first one on ties).
+    fn fastest_joint_on(&self, body: RigidBodyHandle) -> Option<JointId> {
+        let spin = |h: RigidBodyHandle| match self.physics.bodies.get(h) {
+            Some(rb) if rb.is_dynamic() => self.velocity_of(h).1,
+            _ => Vector::ZERO,
+        };
+        let mut best: Option<(JointId, Real)> = None;
+        for id in self.core.joints.attached_to(body) {
+            let Some(e) = self.core.joints.get(id.0 as usize) else {
+                continue;
+            };
+            let rate = (spin(e.body2) - spin(e.body1)).length();
+            if best.is_none_or(|(_, r)| rate > r) {
+                best = Some((id, rate));
+            }
+        }
+        best.map(|(id, _)| id)
     }
 
     /// What the loads could put into the world at rest over the coming step (J; the energy

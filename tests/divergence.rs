@@ -9,7 +9,9 @@
 //!   about sixfold per step: the energy guard (the balance may not grow by more than 0.25 of
 //!   the energy scale in one step) stops it long before the joint turns by more than half a
 //!   turn in one step (the older bound, which caught it before the guard existed): the
-//!   spring's joint (joint 1, the one on the fastest body) must be named.
+//!   spring's joint must be named (joint 1: of the joints on the fastest body, the one whose
+//!   sides turn fastest against each other; the fastest body is the link or the bob depending
+//!   on how the instability grows, and the hinge is on the link too).
 //! - Huge load: the same link and hinge, and beside them a separate pendulum whose hinge
 //!   (joint 1) gets a moment of 1e300 N m at t = 0.1 s: its bob turns non-finite within that
 //!   step (the solve fails on it), and joint 1 must be named as the one on a non-finite body.

@@ -236,7 +236,9 @@ impl Island {
 
     /// Geometric stiffness as added rotational inertia (see the module docs): each joint's
     /// force of the last substep, `F` on body 2 and `-F` on body 1, acts at frame 2's origin `p`;
-    /// a body turning about its centre `c` against it has the stiffness `|F| |p - c|`.
+    /// a body turning about its centre `c` against it has the stiffness `|F| |p - c|`, and
+    /// takes the share of `h^2 |F| |p - c|` that its `(h omega)^2` gives (a smoothstep from 0
+    /// at 1/4 to 1 at 1).
     fn added_inertia(&mut self, joints: &JointSet, bodies: &RigidBodySet, h: Real) {
         let Some(kkt) = self.kkt.as_ref() else { return };
         // Per body: the summed stiffness |F| r of its joints and the longest lever arm r.
@@ -285,9 +287,13 @@ impl Island {
                 continue;
             }
             let omega2 = kg / (s.min_inertia + s.mass * r * r);
-            s.added = if omega2 * h * h > 0.25 {
+            // The ramp, not a step at 1/4: the force estimate moves by ~15 % between the
+            // substeps of a step (the velocity projection is refined at its last one only), and
+            // a switch the estimate crosses toggled the mass matrix and pumped energy.
+            let t = ((omega2 * h * h - 0.25) / 0.75).clamp(0.0, 1.0);
+            s.added = if t > 0.0 {
                 stiffened += 1;
-                h * h * kg
+                t * t * (3.0 - 2.0 * t) * h * h * kg
             } else {
                 0.0
             };
