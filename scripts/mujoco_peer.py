@@ -4,11 +4,11 @@
 Install and run (never needed by the tests or CI):
 
     python3 -m pip install mujoco==4.0.0 numpy
-    cargo run --release --features charts --bin chart        # writes docs/charts/reference_*.csv
+    cargo run --release --features charts --example chart    # writes docs/charts/reference_*.csv
     python3 scripts/mujoco_peer.py [--out docs/charts] [--quick]
-    cargo run --release --features charts --bin chart        # draws MuJoCo beside this crate
+    cargo run --release --features charts --example chart    # draws MuJoCo beside this crate
 
-What it writes into the output directory (the chart reads both back, `demos/chart/peers.rs`):
+What it writes into the output directory (the chart reads both back, `examples/chart/peers.rs`):
 
 - `peer_runs.csv`: the columns of `runs.csv` (scene, method, dt, substeps, cpu_s_per_sim_s,
   traj_err, energy_drift, max_gap, status) for the scenes MuJoCo can express: A01 (pendulum),

@@ -55,9 +55,9 @@
 //!
 //! References: A01 and A02 are 1-DOF problems integrated here by RK4 at h = 1/122880 s (the
 //! pendulum `theta'' = -(m g L / I_p) sin theta` with the bob's own 1e-4 kg m^2 in `I_p`; the
-//! four-bar `theta'' = -(6 g / 5) cos theta`). A04, the chain and the slider-crank use a Lagrange
-//! run at a quarter of the sweep's smallest substep; a second run at twice that step estimates
-//! the reference's own error (printed as the "reference floor").
+//! four-bar `theta'' = -(6 g / 5) cos theta`). A04 and the slider-crank use the fourth-order
+//! composition at the sweep's smallest substep, the chain RATTLE at a quarter of it; a second run
+//! at twice that step estimates the reference's own error (printed as the "reference floor").
 
 use std::error::Error;
 use std::fmt::Write as _;
