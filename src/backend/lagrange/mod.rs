@@ -345,6 +345,11 @@ pub(crate) struct Island {
     /// substep, not in a snapshot).
     #[cfg_attr(feature = "serde-snapshot", serde(skip))]
     load: Vec<(Real, Real)>,
+    /// The bodies at a composed step's start, to take the step again with RATTLE when a body
+    /// turns out to need the added inertia (see `Island::step_plain`; kept to save an
+    /// allocation per step, not in a snapshot).
+    #[cfg_attr(feature = "serde-snapshot", serde(skip))]
+    step_start: Vec<BodyState>,
     saved: Vec<(Real, Vector, Vector)>,
     /// The velocity-level limit stage found every limit far away (the position stage skips).
     limits_clear: bool,
