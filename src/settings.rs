@@ -121,6 +121,13 @@ pub enum StepControl {
         /// 3.6e-10 and 1.2e-8 m. (It was 60 to 120 times while the velocity projection left
         /// its regularisation's `O(h)` residual in the velocities, which the horizon weighed as
         /// an error; see `tests/velocity_projection.rs`.)
+        ///
+        /// It weighs every body's velocity difference as a drift. A light body vibrating in a
+        /// stiff mode does not drift: its velocity error stays an oscillation of about
+        /// `|dv| / omega`. There the control refines far beyond the request: the 1:1000 chain
+        /// of the chart study (light beads at about 440 rad/s on the tensioned string), asked
+        /// 1e-2 m over 2 s with `horizon` 1 s, lands 5.9e-9 m off for about 1 CPU s per
+        /// simulated s, the cost of the fixed fourth-order step at that error.
         horizon: Real,
         /// Local extrapolation (Richardson): a kept doubling moves each body from the `2 n`
         /// result `x_2n` to `x_2n + (x_2n - x_n) / (2^p - 1)`, which takes out the leading
