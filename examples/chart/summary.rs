@@ -103,7 +103,9 @@ pub(crate) fn summary(
         for method in methods_in(&rs) {
             method_row(&mut s, &rs, method);
         }
-        adaptive_table(&mut s, &rs, reference.map_or(0.0, |r| r.2));
+        let floor = reference.map_or(0.0, |r| r.2);
+        adaptive_table(&mut s, &rs, floor);
+        frame_consistency(&mut s, &rs, floor);
         let _ = writeln!(s);
     }
     let _ = writeln!(
@@ -141,6 +143,53 @@ pub(crate) fn summary(
         );
     }
     s
+}
+
+/// This crate's fixed-step runs that share a substep `dt / substeps` but not the frame `dt`,
+/// where their errors differ by more than 3x (the larger above 10x the reference's floor):
+/// a substep should not care which frame it falls in, so such a group points at state
+/// carried across a step's boundary. (The study's scan found two that way, 2026-11-26: the
+/// added inertia's switch and the composition's first step.)
+fn frame_consistency(s: &mut String, rs: &[&Run], floor: f64) {
+    let mut groups: Vec<(Method, u64, Vec<&Run>)> = Vec::new();
+    for r in rs
+        .iter()
+        .filter(|r| r.ok() && r.tol.is_none() && METHODS.contains(&r.method))
+    {
+        let per_second = (r.substeps as f64 / r.dt).round() as u64;
+        match groups
+            .iter_mut()
+            .find(|(m, n, _)| *m == r.method && *n == per_second)
+        {
+            Some((_, _, g)) => g.push(r),
+            None => groups.push((r.method, per_second, vec![r])),
+        }
+    }
+    let mut lines = Vec::new();
+    for (method, per_second, g) in &groups {
+        let (lo, hi) = g.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), r| {
+            (lo.min(r.traj), hi.max(r.traj))
+        });
+        if g.len() > 1 && hi > 3.0 * lo && hi > 10.0 * floor {
+            let runs: Vec<String> = g
+                .iter()
+                .map(|r| format!("{} {:.1e}", r.setting(), r.traj))
+                .collect();
+            lines.push(format!(
+                "- {} at the substep 1/{per_second} s: {}",
+                method.name(),
+                runs.join(", ")
+            ));
+        }
+    }
+    let _ = writeln!(
+        s,
+        "\nSame substep, different frame (this crate's fixed steps whose errors differ by more than 3x): {}",
+        if lines.is_empty() { "none" } else { "" }
+    );
+    for l in lines {
+        let _ = writeln!(s, "{l}");
+    }
 }
 
 /// One method's row of a scene's table: runs, cheapest run to each IFToMM level, observed
