@@ -25,40 +25,15 @@
 //! switch gave 1.0).
 #![cfg(feature = "f64")]
 
-use rapier3d_mpc184::prelude::*;
-use rapier3d_mpc184::studies::benchmarks;
+mod common;
 
-/// End-bead positions every 1/30 s over 2 s, and the largest energy error (per scale).
-fn run(rate: Real, substeps: usize) -> (Vec<Vector>, Real) {
-    let settings = WorldSettings {
-        dt: 1.0 / rate,
-        substeps,
-        integrator: Integrator::Rattle,
-        ..Default::default()
-    };
-    let mut b =
-        benchmarks::chain(settings, 100, 0.1, 0.01, 1000.0, 20f64.to_radians() as Real).unwrap();
-    let per = (rate / 30.0).round() as usize;
-    let (mut probe, mut worst) = (Vec::new(), 0.0 as Real);
-    for _ in 0..60 {
-        for _ in 0..per {
-            b.world.step().unwrap();
-        }
-        probe.push(b.probe_position());
-        worst = worst.max(b.energy_error().abs());
-    }
-    (probe, worst)
-}
+use rapier3d_mpc184::prelude::*;
 
 #[test]
 fn the_same_substep_gives_the_same_chain_motion_whatever_the_frame() {
-    let (framed, e_framed) = run(120.0, 4);
-    let (plain, e_plain) = run(480.0, 1);
-    let apart = framed
-        .iter()
-        .zip(&plain)
-        .map(|(a, b)| (*a - *b).length())
-        .fold(0.0, Real::max);
+    let (framed, e_framed) = common::chain_run(Integrator::Rattle, 120.0, 4);
+    let (plain, e_plain) = common::chain_run(Integrator::Rattle, 480.0, 1);
+    let apart = common::largest_apart(&framed, &plain);
     println!(
         "1/120 x 4 against 1/480 x 1: {apart:.2e} m apart; energy errors {e_framed:.2e}, {e_plain:.2e}"
     );

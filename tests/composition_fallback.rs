@@ -23,37 +23,15 @@
 //! 5.9e-5 at this step with margin for the retaken first step; before: 7.2e-3).
 #![cfg(feature = "f64")]
 
-use rapier3d_mpc184::prelude::*;
-use rapier3d_mpc184::studies::benchmarks;
+mod common;
 
-/// End-bead positions every step (1/30 s) over 2 s, and the largest energy error (per scale).
-fn run(integrator: Integrator) -> (Vec<Vector>, Real) {
-    let settings = WorldSettings {
-        dt: 1.0 / 30.0,
-        substeps: 4,
-        integrator,
-        ..Default::default()
-    };
-    let mut b =
-        benchmarks::chain(settings, 100, 0.1, 0.01, 1000.0, 20f64.to_radians() as Real).unwrap();
-    let (mut probe, mut worst) = (Vec::new(), 0.0 as Real);
-    for _ in 0..60 {
-        b.world.step().unwrap();
-        probe.push(b.probe_position());
-        worst = worst.max(b.energy_error().abs());
-    }
-    (probe, worst)
-}
+use rapier3d_mpc184::prelude::*;
 
 #[test]
 fn the_composition_falls_back_to_rattle_from_the_first_step() {
-    let (composed, e_composed) = run(Integrator::Composition4);
-    let (rattle, e_rattle) = run(Integrator::Rattle);
-    let apart = composed
-        .iter()
-        .zip(&rattle)
-        .map(|(a, b)| (*a - *b).length())
-        .fold(0.0, Real::max);
+    let (composed, e_composed) = common::chain_run(Integrator::Composition4, 30.0, 4);
+    let (rattle, e_rattle) = common::chain_run(Integrator::Rattle, 30.0, 4);
+    let apart = common::largest_apart(&composed, &rattle);
     println!(
         "composition against RATTLE at 1/30 x 4: {apart:.2e} m apart; energy errors \
          {e_composed:.2e}, {e_rattle:.2e}"

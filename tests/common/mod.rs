@@ -247,3 +247,46 @@ pub fn four_bar_adaptive(
         .unwrap();
     b
 }
+
+/// The 1:1000 bead chain of `tests/lagrange_chain.rs` (100 revolute links of 0.1 m, 0.01 kg
+/// beads, a 10 kg end bead, released straight at 20 deg) run for 2 s at `1/rate` s with
+/// `substeps` under `integrator`: the end bead every 1/30 s, and the largest energy error per
+/// energy scale.
+#[cfg(feature = "f64")]
+#[allow(dead_code, reason = "only the chain's integrator tests use it")]
+pub fn chain_run(integrator: Integrator, rate: Real, substeps: usize) -> (Vec<Vector>, Real) {
+    let settings = WorldSettings {
+        dt: 1.0 / rate,
+        substeps,
+        integrator,
+        ..Default::default()
+    };
+    let mut b = rapier3d_mpc184::studies::benchmarks::chain(
+        settings,
+        100,
+        0.1,
+        0.01,
+        1000.0,
+        20f64.to_radians() as Real,
+    )
+    .unwrap();
+    let per = (rate / 30.0).round() as usize;
+    let (mut probe, mut worst) = (Vec::new(), 0.0 as Real);
+    for _ in 0..60 {
+        for _ in 0..per {
+            b.world.step().unwrap();
+        }
+        probe.push(b.probe_position());
+        worst = worst.max(b.energy_error().abs());
+    }
+    (probe, worst)
+}
+
+/// The largest distance between two runs' probe points, sample by sample.
+#[allow(dead_code, reason = "only the chain's integrator tests use it")]
+pub fn largest_apart(a: &[Vector], b: &[Vector]) -> Real {
+    a.iter()
+        .zip(b)
+        .map(|(p, q)| (*p - *q).length())
+        .fold(0.0, Real::max)
+}

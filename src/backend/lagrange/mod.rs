@@ -472,10 +472,7 @@ impl LagrangeBackend {
         }
         let alone = integrates_alone(sets, &self.islands);
         for island in &mut self.islands {
-            island.report = IslandReport {
-                redundant_rows: island.report.redundant_rows,
-                ..IslandReport::default()
-            };
+            island.fresh_report();
             island.prepare(&roles, sets, h, rebuilt)?;
             island.choose_composition(sets.integrator, alone);
             island.last_h = h;
@@ -613,6 +610,14 @@ impl LagrangeBackend {
 }
 
 impl Island {
+    /// A new step's report: only the redundant rows (counted once per topology) carry over.
+    fn fresh_report(&mut self) {
+        self.report = IslandReport {
+            redundant_rows: self.report.redundant_rows,
+            ..IslandReport::default()
+        };
+    }
+
     /// A step's start: the bodies from Rapier, and the factorisation unless the last
     /// substep's still holds (same `h`, bodies as written back, structure not rebuilt).
     fn prepare(&mut self, roles: &Roles, sets: &Sets, h: Real, rebuilt: bool) -> Result<(), Error> {

@@ -366,7 +366,8 @@ impl Island {
             return Ok(());
         }
         let h = self.last_h;
-        let impulse = self.impulse.clone();
+        // The chord steps below book into these like the projection's; they are put back.
+        let (impulse, mu) = (self.impulse.clone(), self.mu.clone());
         self.gather(&physics.bodies, physics.gravity);
         self.rows(joints, &physics.bodies, h, true);
         self.factor(joints, &physics.bodies, h, time)?;
@@ -391,29 +392,12 @@ impl Island {
             // singular pose: the next substep's projection, with its fallback, takes over).
             if residual >= previous || residual.is_nan() {
                 if previous.is_finite() {
-                    for (s, b) in self.st.iter_mut().zip(&self.backup) {
-                        (s.pose, s.com) = *b;
-                    }
+                    self.undo_projection_step(h, false);
                 }
                 break;
             }
             previous = residual;
-            for b in self.rhs_b.iter_mut() {
-                *b = [0.0; 6];
-            }
-            let Some(kkt) = self.kkt.as_ref() else { break };
-            kkt.solve(&mut self.rhs_b, &mut self.rhs_j)
-                .map_err(|e| kkt_err(e, time))?;
-            for (b, s) in self.backup.iter_mut().zip(&self.st) {
-                *b = (s.pose, s.com);
-            }
-            for (s, x) in self.st.iter_mut().zip(&self.rhs_b) {
-                displace(
-                    s,
-                    Vector::new(x[0], x[1], x[2]),
-                    Vector::new(x[3], x[4], x[5]),
-                );
-            }
+            self.projection_step(h, time)?;
         }
         // The rows and factorisation at the settled state (those above hold if nothing moved).
         if previous.is_finite() {
@@ -428,7 +412,7 @@ impl Island {
             *x = [mv.x, mv.y, mv.z, mw.x, mw.y, mw.z];
         }
         self.project_velocities(time, true)?;
-        self.impulse = impulse;
+        (self.impulse, self.mu) = (impulse, mu);
         self.fresh_values = false;
         self.write_back(physics, time)
     }

@@ -13,8 +13,8 @@ use crate::output::EnergyLedger;
 use super::super::Sets;
 use super::effects::Effects;
 use super::{
-    BodyState, Island, IslandReport, LagrangeBackend, MAX_VELOCITY_REFINEMENTS, free_rotor,
-    gyroscopic_kick, kkt_err, projection_tolerance, rotation_scale, velocity_tolerance,
+    BodyState, Island, LagrangeBackend, MAX_VELOCITY_REFINEMENTS, free_rotor, gyroscopic_kick,
+    kkt_err, projection_tolerance, rotation_scale, velocity_tolerance,
 };
 
 /// The stage sizes of the fourth-order composition, in units of the substep: Suzuki's
@@ -142,15 +142,11 @@ impl Island {
         self.plain_substeps(joints, bodies, time, h, n)?;
         if self.would_stiffen {
             self.st.clone_from(&start);
-            self.composed = false;
-            self.report = IslandReport {
-                redundant_rows: self.report.redundant_rows,
-                second_order_bodies: self.second.iter().filter(|x| **x).count(),
-                ..IslandReport::default()
-            };
+            self.fresh_report();
+            self.take_rattle();
             // The warm start's history holds the stages' multipliers (other sizes), and the
             // force estimate of the factorisation below reads the last stage's impulses.
-            self.mu.iter_mut().for_each(|m| *m = 0.0);
+            self.mu.fill(0.0);
             self.mu_depth = 0;
             let scale = h / self.last_h;
             self.impulse.iter_mut().for_each(|x| *x *= scale);

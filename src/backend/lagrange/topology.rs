@@ -303,8 +303,15 @@ impl Island {
             && !self.would_stiffen
             && self.kpen.iter().all(|k| *k == 0.0);
         if asked && !self.composed {
-            self.report.second_order_bodies = self.second.iter().filter(|x| **x).count();
+            self.take_rattle();
         }
+    }
+
+    /// The island takes RATTLE where the composition was asked for: its second-order bodies
+    /// are counted in the report.
+    pub(super) fn take_rattle(&mut self) {
+        self.composed = false;
+        self.report.second_order_bodies = self.second.iter().filter(|x| **x).count();
     }
 
     /// The solver's bodies with an active contact (their slots).
