@@ -66,7 +66,8 @@ pub enum StepControl {
     /// else 1), estimates the error of the `2 n` result, which is kept when the
     /// estimate is within `tolerance`; otherwise `n` doubles and the step is taken again, up to
     /// `max_substeps`. `n` starts at `substeps` and follows the estimate from step to step
-    /// (halved when even the `n` result would have passed). A checked step costs about three
+    /// (halved while the halved step's runs would still pass, predicted from the estimate, by at
+    /// most 8 in one step). A checked step costs about three
     /// times a fixed step of `n` substeps; a retry reuses the last try's `2 n` run as its
     /// coarse run (the same substeps from the same state). (Checking only every 8th step, the steps between at
     /// the checked step's substeps, was tried: it saved a third of the cost but let the error

@@ -7,7 +7,7 @@
 //!    world exactly, so a retry repeats nothing of the rejected try).
 //! 2. The control meets its tolerance: every step's estimate within it (`unmet = 0`), and over
 //!    10 s of RATTLE at 1e-7 m per step the period matches the elliptic-integral period to 1e-5
-//!    (the deck target; measured 3.8e-7, with substeps from 1/120 to 1/3840 s and 86
+//!    (the deck target; measured 3.7e-7, with substeps from 1/120 to 1/3840 s and 84
 //!    retries in 600 steps, found from 4 substeps by the control itself).
 #![cfg(feature = "f64")]
 
