@@ -146,10 +146,10 @@ pub enum StepControl {
         /// locates an event keeps its run as it is (no extrapolation across an event).
         ///
         /// Measured (the chart study's `-x` runs, the same requests): fourth order on A01
-        /// asked 1e-2 m over 10 s, 1.0e-8 m instead of 2.9e-6 m; on the A02 four-bar 7.2e-6 m
-        /// instead of 4.3e-4 m; RATTLE on A01 asked 1e-4 m, 6.3e-10 m instead of 1.7e-6 m, CPU
-        /// from 12 % less to 21 % more. The step-only control on A02 asked 1e-5 m: 3.2e-6 m
-        /// instead of 5.0e-5 m (`tests/adaptive_extrapolation.rs`). Below about 1e-8 m over a
+        /// asked 1e-2 m over 10 s, 1.0e-8 m instead of 2.9e-6 m; on the A02 four-bar 3.4e-6 m
+        /// instead of 8.9e-5 m; RATTLE on A01 asked 1e-4 m, 8.8e-10 m instead of 1.7e-6 m, CPU
+        /// from 7 % less to 35 % more (76 of 83 runs within 7 %). The step-only control on A02
+        /// asked 1e-5 m: 2.7e-6 m instead of 1.03e-5 m (`tests/adaptive_extrapolation.rs`). Below about 1e-8 m over a
         /// run the two runs differ by the solver's tolerances more than by truncation, and the
         /// extrapolation adds that noise (A01 asked 1e-6 m: 1.6e-8 m, against 1.7e-9 m).
         extrapolate: bool,
