@@ -78,9 +78,13 @@ pub enum StepControl {
     /// damped Gauss-Newton near a singular pose, or hit its iteration limit: see
     /// `LagrangeDiagnostics::projection_fallbacks`) is not accepted either: both runs can
     /// share that projection's error, so the estimate misses it, and the step is cut until
-    /// the fine run converges, as ANSYS bisects a step on a convergence failure (measured on
+    /// both runs converge, as ANSYS bisects a step on a convergence failure (measured on
     /// the parallelogram four-bar at 1e-4 m over 10 s: 1.5e-3 m achieved before, 8.7e-5 m
-    /// after, for 3.6 times the substeps). A run that diverges (a blow-up at too long a
+    /// after, for 3.6 times the substeps). The coarse run counts too: with the fine run alone
+    /// converged, the step across the four-bar's singular pose was kept at the first substep
+    /// the fine run got through, and lost 7.1e-7 J there in both runs (A02 asked 1e-6 m over
+    /// 10 s with the step alone: 4.7 times the request; 1.6 times with both, for 6 % more
+    /// substeps). A run that diverges (a blow-up at too long a
     /// substep) is cut the same way instead of stopping the step, while `max_substeps` leaves
     /// room (the spatial slider-crank, fourth order from one substep per 1/30 s: 5 s in 977
     /// substeps, where the first diverging run used to stop it at 0.47 s).
@@ -113,8 +117,8 @@ pub enum StepControl {
         /// step's own span does not see that. To hold a whole run of `T` to a trajectory
         /// error `tol`, ask `tolerance = tol dt / T` per step with `horizon = T / 2` (the mean
         /// time left). Measured on the A02 four-bar over 10 s, fourth order, asked 1e-5 and
-        /// 1e-6 m: with `horizon` 0 the error reached 4.3 and 6.5 times the request; with 5 s,
-        /// 0.37 and 0.40 times, for 1.8 and 2.2 times the CPU (`tests/adaptive_horizon.rs`;
+        /// 1e-6 m: with `horizon` 0 the error reached 0.68 and 1.6 times the request; with 5 s,
+        /// 0.18 and 0.35 times, for 1.45 and 1.9 times the CPU (`tests/adaptive_horizon.rs`;
         /// the chart study's `adaptive-order4` runs, `docs/charts/summary.md`).
         ///
         /// Its price on the smooth scenes that the step alone already held (A01, the conical
@@ -146,10 +150,10 @@ pub enum StepControl {
         /// locates an event keeps its run as it is (no extrapolation across an event).
         ///
         /// Measured (the chart study's `-x` runs, the same requests): fourth order on A01
-        /// asked 1e-2 m over 10 s, 1.0e-8 m instead of 2.9e-6 m; on the A02 four-bar 3.4e-6 m
-        /// instead of 8.9e-5 m; RATTLE on A01 asked 1e-4 m, 8.8e-10 m instead of 1.7e-6 m, CPU
-        /// from 7 % less to 35 % more (76 of 83 runs within 7 %). The step-only control on A02
-        /// asked 1e-5 m: 2.7e-6 m instead of 1.03e-5 m (`tests/adaptive_extrapolation.rs`). Below about 1e-8 m over a
+        /// asked 1e-2 m over 10 s, 1.0e-8 m instead of 2.9e-6 m; on the A02 four-bar 6.9e-7 m
+        /// instead of 8.3e-5 m; RATTLE on A01 asked 1e-4 m, 8.8e-10 m instead of 1.7e-6 m, CPU
+        /// from 8 % less to 32 % more (76 of 83 runs within 7 %). The step-only control on A02
+        /// asked 1e-5 m: 2.3e-7 m instead of 6.8e-6 m (`tests/adaptive_extrapolation.rs`). Below about 1e-8 m over a
         /// run the two runs differ by the solver's tolerances more than by truncation, and the
         /// extrapolation adds that noise (A01 asked 1e-6 m: 1.6e-8 m, against 1.7e-9 m).
         extrapolate: bool,

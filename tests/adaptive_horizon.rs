@@ -9,13 +9,14 @@
 //!
 //! Checked: with `horizon` = 5 s (the mean time left) the crank tip stays within 3 x 1e-5 m of
 //! the exact motion all along (the honesty target), and the largest error is at least
-//! 3 times below the run with `horizon` = 0 (the step alone). Measured: 1.8e-6 m (0.18 of the
-//! request) for 7872 substeps, against 1.03e-5 m (1.03 times the request) for 4179 with the
-//! step alone (while the control coarsened by at most half a step, `next_substeps`: 3.4e-6 m
-//! for 8976, 5.0e-5 m for 5393; before the velocity projection was refined at each step's
-//! end: 2.9e-6 m for 9489, 4.3e-5 m for 5211). The margin of 3 on both: the error of a run
-//! moves with where its steps are cut, by tens of percent between nearby requests, less than
-//! the factors 17 and 5.8 measured.
+//! twice below the run with `horizon` = 0 (the step alone). Measured: 1.8e-6 m (0.18 of the
+//! request) for 8758 substeps, against 6.8e-6 m for 5807 with the step alone: a gain of 3.75.
+//! Before a step was also cut for its coarse run's projection fallback (the singular crossings,
+//! `tests/adaptive_singular.rs`) the step alone lost energy at the crossings and the gain was
+//! 5.7 (1.8e-6 m for 7872 substeps against 1.03e-5 m for 4179); while the control coarsened by
+//! at most half a step (`next_substeps`) 15 (3.4e-6 m against 5.0e-5 m). The margin of 1.9 on
+//! the gain and of 17 on the bound: a run's error moves by tens of percent with where its steps
+//! are cut.
 #![cfg(feature = "f64")]
 
 mod common;
@@ -58,7 +59,7 @@ fn a_horizon_holds_the_run_to_its_trajectory_tolerance() {
         "horizon: worst {held:.2e} m against {REQUESTED:.0e} m requested"
     );
     assert!(
-        3.0 * held <= local,
+        2.0 * held <= local,
         "the horizon gained too little: {held:.2e} m against {local:.2e} m"
     );
 }

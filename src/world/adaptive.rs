@@ -337,10 +337,10 @@ impl Mpc184World {
         let mut m = substeps_for(span, c.dt, n);
         // After a rejection the fine run of the last try is the coarse run of the next (the
         // same substeps from the same state: the same result to the bit), so it is not run
-        // again.
-        let mut reuse: Option<(Vec<BodyState>, EnergyLedger)> = None;
+        // again. A run is kept as its states, its ledger and its projection fallbacks.
+        let mut reuse: Option<(Vec<BodyState>, EnergyLedger, usize)> = None;
         loop {
-            let (coarse, coarse_ledger) = match reuse.take() {
+            let (coarse, coarse_ledger, coarse_fallbacks) = match reuse.take() {
                 Some(kept) => kept,
                 None => {
                     if let Err(e) = self.run_part(span, m) {
@@ -350,7 +350,11 @@ impl Mpc184World {
                     if self.event_seen(watch) {
                         return Ok(Outcome::Event(span / (2 * m) as Real));
                     }
-                    let run = (self.dynamic_states(), self.core.progress.ledger);
+                    let run = (
+                        self.dynamic_states(),
+                        self.core.progress.ledger,
+                        self.backend.projection_fallbacks(),
+                    );
                     self.restore_segment();
                     run
                 }
@@ -391,9 +395,14 @@ impl Mpc184World {
             }
             // A projection that fell back to Gauss-Newton (near a singular pose) is not the
             // integrator's: its error is not in the estimate (both runs can share it), so the
-            // step is cut until the fine run converges by chord iterations, as ANSYS bisects on
-            // a convergence failure.
-            let converged = self.backend.projection_fallbacks() == 0;
+            // step is cut until both runs converge by chord iterations, as ANSYS bisects on a
+            // convergence failure. The coarse run too: the difference estimates the fine run's
+            // error only when both carry the scheme's own error. With the fine run alone
+            // converged, the step that crosses the A02 four-bar's singular pose was kept at the
+            // first substep the fine run got through, and lost 7.1e-7 J there in both runs
+            // (their difference 3e-10 m): 4.7 times the request at 1e-6 m over 10 s, step alone.
+            let fine_fallbacks = self.backend.projection_fallbacks();
+            let converged = fine_fallbacks == 0 && coarse_fallbacks == 0;
             let met = estimate <= c.tolerance && energy <= c.energy_tolerance && converged;
             if met || 2 * n >= c.max {
                 if met && c.extrapolate {
@@ -418,7 +427,7 @@ impl Mpc184World {
                 return Ok(Outcome::Kept(next));
             }
             let joint = worst.and_then(|h| self.core.joints.attached_to(h).first().copied());
-            let fine = (self.dynamic_states(), ledger);
+            let fine = (self.dynamic_states(), ledger, fine_fallbacks);
             self.restore_segment();
             let reason = if !converged {
                 CutReason::Projection
