@@ -1601,16 +1601,67 @@ struct Ldl<'a, const N: usize> {
 }
 
 impl<const N: usize> Ldl<'_, N> {
-    /// Step `K` (`< N`): chooses the pivot among positions `K..N` (largest `|d_i| / s_i`, first
-    /// position on ties, NaN never chosen), moves it to position `K` and eliminates it. Returns
-    /// `false` (nothing changed) when the largest scaled pivot is `<= thresh`: the remaining rows
-    /// are dropped.
+    /// Step `K` (`< N`) of a body block, symmetric positive definite: no pivot search (the
+    /// unpivoted `LDLᵀ` of a positive definite matrix is backward stable), position `K`
+    /// eliminated as it stands. Returns `false` when its scaled pivot `d_K / s_K` is not above
+    /// `thresh` (not positive definite to working precision).
+    ///
+    /// The search, the swap and the candidates' reciprocals of [`Self::step`] were 8 % of the
+    /// Lagrange backend's step on the mixed scene, for the body blocks alone.
+    #[inline(always)]
+    fn step_spd<const K: usize>(&mut self, thresh: Real) -> Result<bool, PivotFail> {
+        let w = &mut self.w[..tri(N)];
+        if K >= N {
+            return Ok(false);
+        }
+        let d = w[tri(K) + K];
+        // `d * 0` is `±0` for finite `d` and NaN otherwise.
+        if d * 0.0 != 0.0 {
+            return Err(PivotFail::NonFinite);
+        }
+        if !(d * self.inv_s[K] > thresh) {
+            return Ok(false);
+        }
+        let id = 1.0 / d;
+        self.dinv[K] = id;
+        self.eliminate_column::<K>(id);
+        Ok(true)
+    }
+
+    /// Eliminates position `K`, whose pivot is `1 / id`: `L` into its column, the Schur
+    /// complement into the trailing block.
     #[inline(always)]
     #[allow(
         clippy::needless_range_loop,
         reason = "index loops with compile-time bounds, fully unrolled"
     )]
-    fn step<const K: usize>(&mut self, thresh: Real, body: bool) -> Result<bool, PivotFail> {
+    fn eliminate_column<const K: usize>(&mut self, id: Real) {
+        let w = &mut self.w[..tri(N)];
+        // Rows in increasing order: for `j < i` the column entry `(j, K)` is already `l_j`,
+        // and `A_ij - l_i d l_j = A_ij - A_iK l_j`.
+        for i in K + 1..N {
+            let aik = w[tri(i) + K];
+            let li = aik * id;
+            for j in K + 1..N {
+                if j < i {
+                    w[tri(i) + j] -= aik * w[tri(j) + K];
+                }
+            }
+            w[tri(i) + i] -= aik * li;
+            w[tri(i) + K] = li;
+        }
+    }
+
+    /// Step `K` (`< N`) of a joint block: chooses the pivot among positions `K..N` (largest
+    /// `|d_i| / s_i`, first position on ties, NaN never chosen), moves it to position `K` and
+    /// eliminates it. Returns `false` (nothing changed) when the largest scaled pivot is
+    /// `<= thresh`: the remaining rows are dropped.
+    #[inline(always)]
+    #[allow(
+        clippy::needless_range_loop,
+        reason = "index loops with compile-time bounds, fully unrolled"
+    )]
+    fn step<const K: usize>(&mut self, thresh: Real) -> Result<bool, PivotFail> {
         let w = &mut self.w[..tri(N)];
         if K >= N {
             return Ok(false);
@@ -1673,25 +1724,9 @@ impl<const N: usize> Ldl<'_, N> {
             self.perm.swap(K, best);
             self.inv_s.swap(K, best);
         }
-        let d = w[tri(K) + K];
-        if body && d <= 0.0 {
-            return Err(PivotFail::NotPositive);
-        }
         let id = recip[best];
         self.dinv[K] = id;
-        // Rows in increasing order: for `j < i` the column entry `(j, K)` is already `l_j`,
-        // and `A_ij - l_i d l_j = A_ij - A_iK l_j`.
-        for i in K + 1..N {
-            let aik = w[tri(i) + K];
-            let li = aik * id;
-            for j in K + 1..N {
-                if j < i {
-                    w[tri(i) + j] -= aik * w[tri(j) + K];
-                }
-            }
-            w[tri(i) + i] -= aik * li;
-            w[tri(i) + K] = li;
-        }
+        self.eliminate_column::<K>(id);
         Ok(true)
     }
 }
@@ -1752,7 +1787,14 @@ impl PivotWork {
         macro_rules! steps {
             ($($k:literal)*) => {
                 $(
-                    if $k < N && rank == N && !st.step::<$k>(thresh, body)? {
+                    if $k < N
+                        && rank == N
+                        && !(if body {
+                            st.step_spd::<$k>(thresh)?
+                        } else {
+                            st.step::<$k>(thresh)?
+                        })
+                    {
                         rank = $k;
                     }
                 )*
