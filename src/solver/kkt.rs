@@ -1619,7 +1619,8 @@ impl<const N: usize> Ldl<'_, N> {
         if d * 0.0 != 0.0 {
             return Err(PivotFail::NonFinite);
         }
-        if !(d * self.inv_s[K] > thresh) {
+        let ratio = d * self.inv_s[K];
+        if ratio.is_nan() || ratio <= thresh {
             return Ok(false);
         }
         let id = 1.0 / d;
