@@ -36,7 +36,9 @@
 //!
 //! # Pivots and redundancy
 //!
-//! Body pivots are symmetric positive definite. Joint pivots are negative semidefinite and are
+//! Body pivots are symmetric positive definite and are factored by the unpivoted `LDLᵀ` (backward
+//! stable there; a scaled pivot at or below `64 eps` is
+//! [`KktError::NotPositiveDefinite`]). Joint pivots are negative semidefinite and are
 //! factored by a dense `LDLᵀ` with symmetric diagonal pivoting, largest scaled `|d|` first (each row
 //! is scaled by the accumulated magnitude of its diagonal, see below). A pivot with
 //! `|d| <= tol * s`, where `s` is the sum of the absolute values of everything that was added to
