@@ -6,10 +6,9 @@
 //! revolute z, started at the bottom at 2 rad/s between elastic stops at +-20 deg (RATTLE's
 //! energy-consistent impact: the rate reverses, the energy stays). Exact: with `I_p` = 1.0001
 //! kg m^2 and `m g L` = 9.81 J the free swing `I_p phi'' = -m g L sin(phi)` from `(0, 2)` reaches
-//! 20 deg at `T1 = int_0^20deg dphi / sqrt(4 - 2 (m g L / I_p) (1 - cos phi))` (the swing's
-//! amplitude, 37 deg, lies beyond the stop, so the integrand stays finite: Simpson's rule on
-//! 4000 intervals, error below 1e-13 s); the angle is then `phi` reflected with period `4 T1`
-//! (out, back, out the other side, back), `phi` by RK4 at `h <= 1e-4 s` (error ~1e-16 rad).
+//! 20 deg at `T1` (`common::stop_pendulum_quarter`, by quadrature, error below 1e-13 s); the
+//! angle is then `phi` reflected with period `4 T1` (out, back, out the other side, back),
+//! `phi` by RK4 at `h <= 1e-4 s` (error ~1e-16 rad).
 //!
 //! Checked, RATTLE, 10 s, dt 1/60:
 //! - asked for 1e-3 m over the run (`1e-3 dt / 10 s` per step, as the chart study asks, the
@@ -34,31 +33,12 @@ const DT: Real = 1.0 / 60.0;
 const STEPS: usize = 600;
 const SECONDS: Real = 10.0;
 const REQUESTED: Real = 1e-3;
-/// The bob's moment about the pivot (kg m^2) and its `m g L` (J).
+/// The bob's moment about the pivot (kg m^2).
 const IP: f64 = 1.0 + 1e-4;
+/// The bob's `m g L` (J).
 const MGL: f64 = 9.81;
-const STOP: f64 = 20.0 * core::f64::consts::PI / 180.0;
+/// The rate the bob starts at, at the bottom (rad/s).
 const RATE: f64 = 2.0;
-
-/// The time of the swing from the bottom to the stop (s), by Simpson's rule.
-fn quarter() -> f64 {
-    let rate = |phi: f64| (RATE * RATE - 2.0 * MGL / IP * (1.0 - phi.cos())).sqrt();
-    let n = 4000;
-    let h = STOP / n as f64;
-    let sum: f64 = (0..=n)
-        .map(|i| {
-            let w = if i == 0 || i == n {
-                1.0
-            } else if i % 2 == 1 {
-                4.0
-            } else {
-                2.0
-            };
-            w / rate(i as f64 * h)
-        })
-        .sum();
-    sum * h / 3.0
-}
 
 /// The exact angle (rad) at time `t`.
 fn exact(t: f64, t1: f64) -> f64 {
@@ -100,7 +80,7 @@ fn run(settings: WorldSettings, reference: &[f64]) -> (Real, u64) {
 
 #[test]
 fn located_impacts_keep_the_trajectory_where_fixed_steps_cannot() {
-    let t1 = quarter();
+    let t1 = common::stop_pendulum_quarter();
     let reference: Vec<f64> = (1..=STEPS)
         .map(|k| exact(k as f64 * DT as f64, t1))
         .collect();

@@ -104,22 +104,7 @@ fn every_impact_is_located_and_the_first_at_its_time() {
     let (g, inertia, w0) = (9.81 as Real, 1.0 + 1e-4, 2.0 as Real);
     let stop = (20.0f64).to_radians() as Real;
     let omega = |th: Real| (w0 * w0 - 2.0 * g * (1.0 - th.cos()) / inertia).sqrt();
-    let k = 2000;
-    let dx = stop / k as Real;
-    let t1 = (0..=k)
-        .map(|i| {
-            let wgt = if i == 0 || i == k {
-                1.0
-            } else if i % 2 == 1 {
-                4.0
-            } else {
-                2.0
-            };
-            wgt / omega(i as Real * dx)
-        })
-        .sum::<Real>()
-        * dx
-        / 3.0;
+    let t1 = common::stop_pendulum_quarter() as Real;
     let (mut impacts, mut was, mut first) = (0, false, None);
     while world.time() < 10.0 {
         world.step().unwrap();
