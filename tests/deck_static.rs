@@ -18,6 +18,8 @@
 //!   gravity ramps in time, so potential plus work is not conserved here.)
 #![cfg(feature = "f64")]
 
+mod common;
+
 use std::path::PathBuf;
 
 use rapier3d_mpc184::deck::{BuildOptions, DeckModel, parse_file, parse_str};
@@ -72,21 +74,7 @@ fn driven_slider_crank_static_matches_the_closed_form() {
     let n = 200_000;
     let span = 4.0 * std::f64::consts::PI;
     let f = |u: f64| 0.75 * G * R * (u / span) * theta(u / span).cos();
-    let hs = span / n as f64;
-    let exact_work = (0..=n)
-        .map(|k| {
-            let w = if k == 0 || k == n {
-                1.0
-            } else if k % 2 == 1 {
-                4.0
-            } else {
-                2.0
-            };
-            w * f(k as f64 * hs)
-        })
-        .sum::<f64>()
-        * hs
-        / 3.0;
+    let exact_work = common::simpson(f, 0.0, span, n);
     let work = m.world.energy().work;
     println!(
         "static slider-crank: slider x err {worst_x:.2e} m, crank rotation err {worst_rot:.2e} rad, bearing moment err {worst_m:.2e} N m, kinetic {worst_ke:.1e} J, drive work {work:.6} J vs {exact_work:.6} J"

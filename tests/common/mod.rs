@@ -105,8 +105,13 @@ pub fn stop_pendulum_quarter() -> f64 {
     let (mgl, inertia, rate) = (9.81, 1.0 + 1e-4, 2.0);
     let stop = 20f64.to_radians();
     let speed = |theta: f64| (rate * rate - 2.0 * mgl / inertia * (1.0 - theta.cos())).sqrt();
-    let n = 4000;
-    let h = stop / n as f64;
+    simpson(|theta| 1.0 / speed(theta), 0.0, stop, 4000)
+}
+
+/// `int_a^b f` by Simpson's rule on `n` (even) intervals.
+#[allow(dead_code, reason = "only the tests with a quadrature use it")]
+pub fn simpson(f: impl Fn(f64) -> f64, a: f64, b: f64, n: usize) -> f64 {
+    let h = (b - a) / n as f64;
     let sum: f64 = (0..=n)
         .map(|i| {
             let w = if i == 0 || i == n {
@@ -116,7 +121,7 @@ pub fn stop_pendulum_quarter() -> f64 {
             } else {
                 2.0
             };
-            w / speed(i as f64 * h)
+            w * f(a + i as f64 * h)
         })
         .sum();
     sum * h / 3.0
