@@ -21,7 +21,7 @@ pub(super) enum Eval {
 }
 
 use super::{
-    DEFAULT_PENALTY_DISP, DEFAULT_PENALTY_ROT, Island, REGULARISATION, Warning, kkt_err,
+    DEFAULT_PENALTY_DISP, DEFAULT_PENALTY_ROT, Island, REGULARISATION_LOOPS, Warning, kkt_err,
     penalty_stiffness,
 };
 
@@ -170,11 +170,11 @@ impl Island {
                 self.kpen[r] = k_pen.unwrap_or(0.0);
                 self.compliance[r] = match k_pen {
                     Some(k) => 1.0 / (k * h * h),
-                    // A relative regularisation of the hard rows (`REGULARISATION` times the
+                    // A relative regularisation of the hard rows (`regularisation` times the
                     // row's own effective inverse mass): it bounds the multipliers in directions
                     // that become dependent at a singular pose (a parallelogram four-bar passing
                     // its aligned position) and changes the solution of a well-posed system by
-                    // that relative amount only.
+                    // that relative amount only (see `REGULARISATION_LOOPS` and `_TREE`).
                     None => {
                         let mut a = 0.0;
                         for (slot, jb) in [(i1, j1), (i2, j2)] {
@@ -184,7 +184,7 @@ impl Island {
                                     + jb[1].dot(s.inertia_inv * jb[1]);
                             }
                         }
-                        REGULARISATION * self.reg_scale * a
+                        self.regularisation * self.reg_scale * a
                     }
                 };
             }
@@ -331,6 +331,17 @@ impl Island {
         self.compliance = saved;
         self.redundant_count = self.report.redundant_rows;
         self.redundant = self.report.redundant_rows > 0;
+        if self.redundant && self.regularisation < REGULARISATION_LOOPS {
+            // A tree with dependent rows (a joint's own rows at a singular pose): the
+            // multipliers need the loops' regularisation.
+            let scale = REGULARISATION_LOOPS / self.regularisation;
+            self.regularisation = REGULARISATION_LOOPS;
+            for (c, &k) in self.compliance.iter_mut().zip(&self.kpen) {
+                if k == 0.0 {
+                    *c *= scale;
+                }
+            }
+        }
         result
     }
 }

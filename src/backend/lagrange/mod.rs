@@ -86,8 +86,25 @@ pub const DEFAULT_PENALTY_DISP: Real = 1e8;
 /// Default penalty stiffness on rotations (N m/rad).
 pub const DEFAULT_PENALTY_ROT: Real = 1e8;
 
-/// Relative regularisation of hard (Lagrange) rows, see [`assemble`].
-const REGULARISATION: Real = 1e-8;
+/// Relative regularisation of the hard (Lagrange) rows of an island with a closed loop (or
+/// with rows found redundant), see [`assemble`]: there rows become dependent at singular poses
+/// (a parallelogram four-bar passing its aligned position) or are dependent at every pose (the
+/// Bricard mechanism), and the regularisation is what bounds and selects their multipliers.
+/// Measured with 1e-10 instead (the chart study): the fourth-order Bricard runs' error rose by
+/// a median factor of 127, and the adaptive step-only control on A02 reached 4.1 times its
+/// request (1.6 with 1e-8).
+const REGULARISATION_LOOPS: Real = 1e-8;
+
+/// Relative regularisation of the hard rows of a tree island (no closed loop, no redundant
+/// row): its rows are independent at every pose but a joint's own singular ones (each joint
+/// moves a body of its own), so the regularisation only biases the solves. That bias is what
+/// the velocity projection's refinement removes, one factor `c / (a + c)` per solve, and what
+/// slows the chord iteration in the same way: on the 1000-link chain, whose constraint matrix
+/// with the added inertia has eigenvalues down to about 1e-8 of its diagonal, a refinement or
+/// chord step took off only a factor 0.45 along those directions at 1e-8 (5.9 solves per
+/// substep; 4.5 at 1e-10). The chart study's 1:1000 chain: the fourth-order runs' error fell by
+/// a median factor of 1.7 (adaptive: 8.5) at 13-25 % less CPU.
+const REGULARISATION_TREE: Real = 1e-10;
 
 /// The position projection stops once every row's residual is below this (m or rad; f32
 /// builds stop at their round-off, `10 Real::EPSILON`).
@@ -310,6 +327,9 @@ pub(crate) struct Island {
     kpen: Vec<Real>,
     /// Prescribed rate of each row over the current substep (drives; 0 elsewhere).
     rate: Vec<Real>,
+    /// The hard rows' relative regularisation: [`REGULARISATION_TREE`] for a tree island,
+    /// [`REGULARISATION_LOOPS`] for one with a closed loop or redundant rows.
+    regularisation: Real,
     /// Scale of the hard rows' regularisation (raised by a failing projection).
     reg_scale: Real,
     /// The last projection step, to undo it: the bodies' poses and centres of mass before it

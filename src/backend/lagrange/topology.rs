@@ -12,7 +12,9 @@ use crate::solver::kkt::{JAC_ROW_STRIDE, JointBlockSpec, KktSolver};
 use crate::spring::SpringSet;
 
 use super::super::{Sets, lower};
-use super::{BodyState, Island, LagrangeBackend, Warning};
+use super::{
+    BodyState, Island, LagrangeBackend, REGULARISATION_LOOPS, REGULARISATION_TREE, Warning,
+};
 
 impl LagrangeBackend {
     /// The structure is stale: invalidated, the joints' rows changed, an island fell asleep or
@@ -92,13 +94,6 @@ fn island_members(
         }))
         .collect();
     let mut parent: Vec<usize> = (0..sides.len()).collect();
-    fn root(p: &mut [usize], mut i: usize) -> usize {
-        while p[i] != i {
-            p[i] = p[p[i]];
-            i = p[i];
-        }
-        i
-    }
     let mut owner: HashMap<RigidBodyHandle, usize> = HashMap::new();
     for (k, s) in sides.iter().enumerate() {
         let Some(s) = s else { continue };
@@ -190,6 +185,11 @@ impl Island {
         };
         island.size_buffers(bodies.len(), kkt.num_rows());
         island.has_kinematic = has_kinematic;
+        island.regularisation = if is_tree(bodies.len(), &specs) {
+            REGULARISATION_TREE
+        } else {
+            REGULARISATION_LOOPS
+        };
         island.bodies = bodies;
         island.index = index;
         island.blocks = blocks;
@@ -377,5 +377,76 @@ fn contact_rows_in_rapier(sets: &mut Sets) {
         {
             j.data.lock_axes(mask);
         }
+    }
+}
+
+/// The island's joint blocks form no closed loop: in the graph of its `nb` dynamic bodies and
+/// one node for everything else (the ground, fixed and kinematic bodies, where a block has an
+/// absent side), no block joins two nodes that other blocks already connect. Two blocks
+/// between the same two bodies, or two blocks from one body to the ground, make a loop.
+fn is_tree(nb: usize, specs: &[JointBlockSpec]) -> bool {
+    let mut parent: Vec<usize> = (0..=nb).collect();
+    specs.iter().all(|s| {
+        let [a, b] = s.bodies.map(|b| b.unwrap_or(nb));
+        let (ra, rb) = (root(&mut parent, a), root(&mut parent, b));
+        parent[ra.max(rb)] = ra.min(rb);
+        ra != rb
+    })
+}
+
+/// The root of `i` in the union-find forest `p` (path halving).
+fn root(p: &mut [usize], mut i: usize) -> usize {
+    while p[i] != i {
+        p[i] = p[p[i]];
+        i = p[i];
+    }
+    i
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn spec(a: Option<usize>, b: Option<usize>) -> JointBlockSpec {
+        JointBlockSpec {
+            rows: 5,
+            bodies: [a, b],
+        }
+    }
+
+    #[test]
+    fn trees_and_loops() {
+        // A chain of three bodies hanging from the ground: a tree.
+        let chain = [
+            spec(None, Some(0)),
+            spec(Some(0), Some(1)),
+            spec(Some(1), Some(2)),
+        ];
+        assert!(is_tree(3, &chain));
+        // A floating pair and a branch: trees.
+        assert!(is_tree(2, &[spec(Some(0), Some(1))]));
+        assert!(is_tree(
+            3,
+            &[
+                spec(None, Some(0)),
+                spec(Some(0), Some(1)),
+                spec(Some(0), Some(2))
+            ]
+        ));
+        // A four-bar (crank, coupler, rocker between two ground pivots): a loop through the
+        // ground.
+        let four_bar = [
+            spec(None, Some(0)),
+            spec(Some(0), Some(1)),
+            spec(Some(1), Some(2)),
+            spec(Some(2), None),
+        ];
+        assert!(!is_tree(3, &four_bar));
+        // Two blocks between the same bodies, or from one body to the ground: loops.
+        assert!(!is_tree(
+            2,
+            &[spec(Some(0), Some(1)), spec(Some(1), Some(0))]
+        ));
+        assert!(!is_tree(1, &[spec(None, Some(0)), spec(Some(0), None)]));
     }
 }
