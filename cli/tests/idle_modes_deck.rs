@@ -6,9 +6,13 @@
 //!   mobility of the mechanism (1 DOF, the crank) with the spin held.
 //! - Kept (`--keep-idle-modes`), the default step (first order, 1/240 s x 4) runs away: the spin
 //!   runs up to hundreds of rad/s on its tiny inertia. Removed (the default), the same run
-//!   reaches t = 2 s with the rod joints' relative angular velocity below 31 rad/s (the
-//!   crank's own motion). Asserted: the kept run stops (exit 3, a turn past the divergence
-//!   bound in one step) or its rod joints turn at over 5 times the removed run's largest rate.
+//!   reaches t = 2 s with the rod joints' largest relative angular velocity that of the
+//!   mechanism itself: within 5 % of the converged run's (RATTLE x64: 31.23 rad/s, the same
+//!   to 1e-3 rad/s at x256). Measured 30.21 rad/s, 3.3 % low: the first-order step, and the
+//!   loop's relative regularisation of 1e-8, which on the rod's rotary inertia of 1.1e-8
+//!   kg m^2 is a real compliance of the spin row (1e-10, as trees take it, gave 31.26 rad/s).
+//!   Asserted: the kept run stops (exit 3, a turn past the divergence bound in one step) or
+//!   its rod joints turn at over 5 times the removed run's largest rate.
 //!   Measured: 390 rad/s against 30 rad/s over 2 s; before the velocity projection was refined
 //!   at the end of each step, 766 rad/s at t = 0.35 s and exit 3 (the spin's peak sits near
 //!   the bound of pi per step, so which side of it a run falls is not the point).
@@ -115,9 +119,16 @@ fn the_kept_spin_diverges_and_the_removed_one_runs() {
     let end = slider_x(&removed).last().unwrap().0;
     assert!((end - 2.0).abs() < 1e-9, "ends at {end}");
     let calm = rod_spin(&removed);
+    let converged = dir("converged");
+    let out = mpc184(
+        &["run", "--integrator", "second-order", "--substeps", "64"],
+        Some(&converged),
+    );
+    assert!(out.status.success());
+    let peak = rod_spin(&converged);
     assert!(
-        calm > 1.0 && calm < 31.0,
-        "removed: rod joints at {calm} rad/s"
+        (calm - peak).abs() < 0.05 * peak,
+        "removed: rod joints at {calm} rad/s, converged {peak} rad/s"
     );
     match kept_out.status.code() {
         Some(3) => {}

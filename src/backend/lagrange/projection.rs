@@ -12,8 +12,8 @@ use crate::solver::kkt::JAC_ROW_STRIDE;
 
 use super::assemble::Eval;
 use super::{
-    Island, MAX_PROJECTION_ITERATIONS, MU_HISTORY, SMOOTH, WARM_START_LIMIT, Warning,
-    angular_block, displace, kkt_err, projection_tolerance,
+    Island, MAX_PROJECTION_ITERATIONS, MU_HISTORY, REGULARISATION_LOOPS, SMOOTH, WARM_START_LIMIT,
+    Warning, angular_block, displace, kkt_err, projection_tolerance,
 };
 
 impl Island {
@@ -265,16 +265,20 @@ impl Island {
     /// composed island's stages differ in size (and their multipliers with it): it
     /// extrapolates linearly.
     ///
-    /// Bodies given added inertia used to start again too (the 1:1000 chain needed 5
-    /// iterations instead of 2), but that was the hard rows' regularisation of 1e-8, whose
-    /// slow directions the chord steps could not take out (see `REGULARISATION_TREE`): with
-    /// the tree's 1e-10 the extrapolation is as good there as elsewhere (1:1000 chains of 10,
-    /// 100 and 1000 links at 1/60 s x 4: 4.58 -> 4.18, 4.28 -> 4.25 and 4.50 -> 4.50 solves
-    /// per substep; RATTLE at 1/30 s x 2: 14.6 -> 12.9; never more). The rule read the step's
-    /// report, which starts each step at zero, so the first substep of a step extrapolated
-    /// anyway.
+    /// An island with a loop also starts again while it has bodies given added inertia (the
+    /// 1:1000 chain needed 5 iterations instead of 2 when trees took the loops'
+    /// regularisation). That was the regularisation of 1e-8, whose slow directions the chord
+    /// steps could not take out (see `REGULARISATION_TREE`): with the tree's 1e-10 the
+    /// extrapolation is as good there as elsewhere (1:1000 chains of 10, 100 and 1000 links at
+    /// 1/60 s x 4: 4.58 -> 4.18, 4.28 -> 4.25 and 4.50 -> 4.50 solves per substep; RATTLE at
+    /// 1/30 s x 2: 14.6 -> 12.9; never more), so trees extrapolate. Loops keep the rule as it
+    /// was, reading the step's report, which starts each step at zero (so their first
+    /// substep of a step extrapolates); without it the chart study's slider-crank at 1/30 s
+    /// x 2 (RATTLE) diverged at t = 2.8 s where it ran to the end.
     fn extrapolate_multipliers(&mut self) {
-        let smooth = self.kpen.iter().all(|k| *k == 0.0);
+        let tree = self.regularisation < REGULARISATION_LOOPS;
+        let smooth =
+            (tree || self.report.stiffened_bodies == 0) && self.kpen.iter().all(|k| *k == 0.0);
         let n = self.mu.len();
         let held = &self.mu_history[..self.mu_depth];
         if !smooth || held.iter().any(|h| h.len() != n) {
