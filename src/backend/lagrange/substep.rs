@@ -558,9 +558,10 @@ impl Island {
     /// (the last substep of a step), refined until the hard rows hold to
     /// [`velocity_tolerance`].
     ///
-    /// The factorisation carries the hard rows' relative regularisation (`REGULARISATION`
-    /// times each row's own effective inverse mass), so one solve leaves `J v - rate = c
-    /// lambda`. Relative to the row's diagonal that is 1e-8, but a row's diagonal can be far
+    /// The factorisation carries the hard rows' relative regularisation (`REGULARISATION_LOOPS`
+    /// or `REGULARISATION_TREE` times each row's own effective inverse mass), so one solve
+    /// leaves `J v - rate = c lambda`. Relative to the row's diagonal that is 1e-8 (1e-10 in a
+    /// tree; the figures below are from before trees took it), but a row's diagonal can be far
     /// larger than the system's stiffness in the direction it constrains: the bob of the A01
     /// pendulum (1 kg, 1e-4 kg m^2, 1 m from the pin) has `1/m + L^2/I = 1e4` on a pin row,
     /// against `1/m = 1` along the rod, so the projection left the bob a radial velocity of
