@@ -92,7 +92,7 @@ pub const DEFAULT_PENALTY_ROT: Real = 1e8;
 /// Bricard mechanism), and the regularisation is what bounds and selects their multipliers.
 /// Measured with 1e-10 instead (the chart study): the fourth-order Bricard runs' error rose by
 /// a median factor of 127, and the adaptive step-only control on A02 reached 4.1 times its
-/// request (1.6 with 1e-8).
+/// request (2.0 with 1e-8).
 const REGULARISATION_LOOPS: Real = 1e-8;
 
 /// Relative regularisation of the hard rows of a tree island (no closed loop, no redundant
@@ -103,7 +103,8 @@ const REGULARISATION_LOOPS: Real = 1e-8;
 /// with the added inertia has eigenvalues down to about 1e-8 of its diagonal, a refinement or
 /// chord step took off only a factor 0.45 along those directions at 1e-8 (5.9 solves per
 /// substep; 4.5 at 1e-10). The chart study's 1:1000 chain: the fourth-order runs' error fell by
-/// a median factor of 1.7 (adaptive: 8.5) at 13-25 % less CPU.
+/// a median factor of 1.7 (adaptive: 8.5) at 15-25 % less CPU (the runs the change does not
+/// touch: 4-6 % less).
 const REGULARISATION_TREE: Real = 1e-10;
 
 /// The position projection stops once every row's residual is below this (m or rad; f32
