@@ -3,9 +3,9 @@
 use crate::math::Real;
 
 /// In-place Cholesky solve (the solution overwrites `b`) of the SPD (or semidefinite) `a` (n x n, row-major); rows whose
-/// pivot falls below a relative tolerance are treated as dependent and solved as zero.
+/// pivot falls below a relative tolerance are treated as dependent and solved as zero. It does
+/// not allocate: a dropped row is marked by a zero diagonal (a kept row's is `sqrt(d) > 0`).
 pub fn cholesky_solve_dropping(a: &mut [Real], b: &mut [Real], n: usize) {
-    let mut dropped = vec![false; n];
     for j in 0..n {
         // Relative to the row's own diagonal: rows of very different scale (forces on a 1 kg
         // body, moments on a 1e-4 kg m^2 one) share one matrix.
@@ -15,7 +15,6 @@ pub fn cholesky_solve_dropping(a: &mut [Real], b: &mut [Real], n: usize) {
             d -= a[j * n + k] * a[j * n + k];
         }
         if d.is_nan() || d <= tol {
-            dropped[j] = true;
             for i in j..n {
                 a[i * n + j] = 0.0;
             }
@@ -32,7 +31,7 @@ pub fn cholesky_solve_dropping(a: &mut [Real], b: &mut [Real], n: usize) {
         }
     }
     for i in 0..n {
-        if dropped[i] {
+        if a[i * n + i] == 0.0 {
             b[i] = 0.0;
             continue;
         }
@@ -43,7 +42,7 @@ pub fn cholesky_solve_dropping(a: &mut [Real], b: &mut [Real], n: usize) {
         b[i] = s / a[i * n + i];
     }
     for i in (0..n).rev() {
-        if dropped[i] {
+        if a[i * n + i] == 0.0 {
             b[i] = 0.0;
             continue;
         }

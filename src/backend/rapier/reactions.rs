@@ -2,8 +2,10 @@
 //! impulses over the recorded span (the step, or the multibody's last substep), split among the
 //! joints by momentum balance.
 
+mod forest;
+
 use crate::math::rapier::dynamics::{RigidBodyHandle, RigidBodySet};
-use crate::math::{Pose, Real, Vector};
+use crate::math::{Matrix, Pose, Real, Vector};
 use crate::rows::{FramePair, RowEval};
 use crate::solver::kkt::{JointBlockSpec, KktSolver};
 
@@ -21,6 +23,10 @@ pub(crate) struct Scratch {
     /// Per recorded body: its pose and centre of mass halfway through the span.
     mid: Vec<(Pose, Vector)>,
     mass: Vec<[Real; 36]>,
+    /// Per recorded body: its inverse mass and world inverse inertia at the start, and whether
+    /// every body has both (the forest's metric needs them).
+    inv_mass: Vec<(Real, Matrix)>,
+    invertible: bool,
     impulse: Vec<[Real; 6]>,
     specs: Vec<JointBlockSpec>,
     jac: Vec<Real>,
@@ -30,6 +36,8 @@ pub(crate) struct Scratch {
     mu: Vec<Real>,
     compliance: Vec<Real>,
     wrench: Vec<(Vector, Vector)>,
+    /// The joints' forest, when they form one (see [`forest`]).
+    forest: forest::Forest,
 }
 
 impl Scratch {
@@ -67,38 +75,29 @@ impl RapierBackend {
         sc.place_bodies(&starts, &sets.physics.bodies);
         self.body_blocks(sets, &starts, h, &mut sc);
         self.rows_halfway(sets, &starts, h, &mut sc);
+        // (J M^-1 J^T) mu = J M^-1 p: the KKT system with f = p, g = 0 and no compliance, or
+        // its forest form joint by joint.
+        sc.mu.clear();
+        sc.mu.resize(sc.owner.len(), 0.0);
+        let in_forest = sc.invertible
+            && sc.forest.update(&sc.specs, starts.len())
+            && sc.forest.solve(
+                &sc.impulse,
+                |b| sc.mid[b].1,
+                |b| sc.inv_mass[b],
+                &sc.owner,
+                &mut sc.mu,
+            );
+        if !in_forest {
+            self.kkt_split(sets, &starts, &mut sc);
+        }
         let Scratch {
-            mass,
-            impulse,
-            specs,
-            jac,
             owner,
             driven,
             mu,
-            compliance,
             wrench,
             ..
         } = &mut sc;
-        // (J M^-1 J^T) mu = J M^-1 p: the KKT system with f = p, g = 0 and no compliance.
-        mu.clear();
-        mu.resize(owner.len(), 0.0);
-        let rebuild = self
-            .recovery
-            .as_ref()
-            .is_none_or(|k| k.joint_specs() != specs.as_slice() || k.num_bodies() != starts.len());
-        if rebuild {
-            self.recovery = KktSolver::new(starts.len(), specs).ok();
-        }
-        compliance.clear();
-        compliance.resize(owner.len(), 0.0);
-        if let Some(kkt) = self.recovery.as_mut()
-            && kkt.factor(mass, jac, compliance).is_ok()
-            && kkt.solve(impulse, mu).is_ok()
-        {
-            // mu now holds the multipliers (impulses, N s).
-        } else {
-            mu.iter_mut().for_each(|m| *m = 0.0);
-        }
         // A drive's work over the step: its force `mu / h` times the prescribed rate, over the
         // step (the recorded span is the whole step on the impulse backend, its last substep on
         // the multibody one).
@@ -124,8 +123,63 @@ impl RapierBackend {
         self.scratch = sc;
     }
 
+    /// The multipliers by the KKT solve over every recorded body (when the joints close a loop
+    /// or a body lacks a mass or a moment), into the scratch's `mu` (zero if it fails).
+    fn kkt_split(
+        &mut self,
+        sets: &Sets,
+        starts: &[(RigidBodyHandle, super::BodyStart)],
+        sc: &mut Scratch,
+    ) {
+        let Scratch {
+            mass,
+            impulse,
+            specs,
+            jac,
+            owner,
+            mu,
+            compliance,
+            ..
+        } = sc;
+        mass.clear();
+        for (b, s) in starts {
+            let rb = &sets.physics.bodies[*b];
+            let (m, inertia) = (rb.mass(), crate::body::inertia_at(rb, &s.pose));
+            let mut block = [0.0; 36];
+            for k in 0..3 {
+                block[6 * k + k] = m;
+                for l in 0..3 {
+                    block[6 * (3 + k) + 3 + l] = inertia.col(l)[k];
+                }
+            }
+            mass.push(block);
+        }
+        jac.clear();
+        for (_, ev) in owner.iter() {
+            for half in [ev.j1, ev.j2] {
+                jac.extend_from_slice(&[half[0].x, half[0].y, half[0].z]);
+                jac.extend_from_slice(&[half[1].x, half[1].y, half[1].z]);
+            }
+        }
+        let rebuild = self
+            .recovery
+            .as_ref()
+            .is_none_or(|k| k.joint_specs() != specs.as_slice() || k.num_bodies() != starts.len());
+        if rebuild {
+            self.recovery = KktSolver::new(starts.len(), specs).ok();
+        }
+        compliance.clear();
+        compliance.resize(owner.len(), 0.0);
+        let solved = self.recovery.as_mut().is_some_and(|kkt| {
+            kkt.factor(mass, jac, compliance).is_ok() && kkt.solve(impulse, mu).is_ok()
+        });
+        if !solved {
+            mu.iter_mut().for_each(|m| *m = 0.0);
+        }
+    }
+
     /// Every joint's rows halfway through the span (the constraint forces turn with the bodies
-    /// over it) into the scratch's specs, Jacobian arena, owners and drive rates.
+    /// over it) into the scratch's specs, owners (with the rows) and drive rates.
     fn rows_halfway(
         &self,
         sets: &Sets,
@@ -137,13 +191,11 @@ impl RapierBackend {
             index,
             mid,
             specs,
-            jac,
             owner,
             driven,
             ..
         } = sc;
         specs.clear();
-        jac.clear();
         owner.clear();
         driven.clear();
         let (t0, t1) = (self.span_start, self.span_start + h);
@@ -180,18 +232,14 @@ impl RapierBackend {
                         .map(|d| super::drives::mean_rate(d, t0, t1)),
                     _ => None,
                 });
-                for half in [ev.j1, ev.j2] {
-                    jac.extend_from_slice(&[half[0].x, half[0].y, half[0].z]);
-                    jac.extend_from_slice(&[half[1].x, half[1].y, half[1].z]);
-                }
                 owner.push((ji, ev));
             }
         }
     }
 
-    /// Per recorded body: the mass block `M_b` and the constraint impulse over the span `h`,
-    /// `p_b = m dv - h f` and `l_b = I_1 w_1 - I_0 w_0 - h tau` (angular momenta at the end and
-    /// start poses), into the scratch's `mass` and `impulse`.
+    /// Per recorded body: the inverse mass at the start and the constraint impulse over the
+    /// span `h`, `p_b = m dv - h f` and `l_b = I_1 w_1 - I_0 w_0 - h tau` (angular momenta at
+    /// the end and start poses), into the scratch's `inv_mass` and `impulse`.
     fn body_blocks(
         &self,
         sets: &Sets,
@@ -200,21 +248,22 @@ impl RapierBackend {
         sc: &mut Scratch,
     ) {
         let nb = starts.len();
-        let (mass, impulse) = (&mut sc.mass, &mut sc.impulse);
-        mass.clear();
-        mass.resize(nb, [0.0; 36]);
+        let impulse = &mut sc.impulse;
+        sc.inv_mass.clear();
+        sc.invertible = true;
         impulse.clear();
         impulse.resize(nb, [0.0; 6]);
         for (i, (b, s)) in starts.iter().enumerate() {
             let rb = &sets.physics.bodies[*b];
             let m = rb.mass();
-            let inertia = crate::body::inertia_at(rb, &s.pose);
-            for k in 0..3 {
-                mass[i][6 * k + k] = m;
-                for l in 0..3 {
-                    mass[i][6 * (3 + k) + 3 + l] = inertia.col(l)[k];
-                }
-            }
+            let mp = &rb.mass_properties().local_mprops;
+            let inv_i = mp.inv_principal_inertia;
+            sc.invertible &= mp.inv_mass > 0.0 && inv_i.min_element() > 0.0;
+            let r = Matrix::from_quat(s.pose.rotation * mp.principal_inertia_local_frame);
+            sc.inv_mass.push((
+                mp.inv_mass,
+                r * Matrix::from_diagonal(inv_i) * r.transpose(),
+            ));
             let (v, w) = self.velocity(sets.physics, *b);
             let p = (v - s.linvel) * m - s.force * h;
             let l = crate::body::angular_momentum(rb, w) - s.momentum - s.torque * h;

@@ -1,0 +1,335 @@
+//! The reaction recovery on joints that form a forest (no closed loop, no two joints between
+//! one pair of bodies): each joint's impulse from the impulses of the bodies it carries, leaves
+//! first, instead of a KKT factorisation.
+//!
+//! A joint `k` of a forest separates its child's subtree `S` from the rest (the ground, a fixed
+//! or kinematic body, or the floating tree's root). The joints inside `S` act on two bodies of
+//! `S` with equal and opposite wrenches, so the constraint impulses on `S`'s bodies sum, about
+//! a common point, to joint `k`'s alone: `J_c^T mu_k = sum_{b in S} (p_b, l_b + (x_b - x_c) x
+//! p_b)`, with `J_c` the joint's Jacobian block on its child `c` and `x` the centres of mass
+//! halfway through the span (where the rows are evaluated). That is 6 equations for `m_k <= 6`
+//! independent rows; they are solved in the child's mass metric,
+//! `(J_c M_c^-1 J_c^T) mu_k = J_c M_c^-1 w`, which is the KKT solve's
+//! `(J M^-1 J^T) mu = J M^-1 p` when the impulses are consistent (Rapier's are up to its
+//! substeps' pose changes and softness) and costs `O(m_k^3)` per joint instead of a block
+//! factorisation and two sweeps.
+
+use crate::math::{Matrix, Real, Vector};
+use crate::rows::RowEval;
+use crate::solver::dense;
+use crate::solver::kkt::{JointBlockSpec, MAX_JOINT_ROWS};
+
+/// One joint of the forest, with the body on its far side from the root.
+#[derive(Clone, Copy, Debug)]
+struct Edge {
+    /// The joint (index in the recovery's specs).
+    joint: usize,
+    /// Its first row in the recovery's rows.
+    row: usize,
+    /// The child body (index in the recorded bodies) and its side of the joint (0: body 1).
+    child: usize,
+    side: usize,
+    /// The parent body, `None` for the ground.
+    parent: Option<usize>,
+}
+
+/// The recovery's joints ordered from the leaves to the roots, or `None` when they do not
+/// form a forest; rebuilt when the joints' bodies or row counts change.
+#[derive(Default)]
+pub(super) struct Forest {
+    specs: Vec<JointBlockSpec>,
+    nb: usize,
+    edges: Option<Vec<Edge>>,
+    /// Per body: the impulse of the subtree it tops, linear and angular about its centre of
+    /// mass.
+    acc: Vec<[Vector; 2]>,
+}
+
+impl Forest {
+    /// The forest for `specs` over `nb` recorded bodies (kept from the last call when they are
+    /// the same); whether the joints form one.
+    pub(super) fn update(&mut self, specs: &[JointBlockSpec], nb: usize) -> bool {
+        if self.nb != nb || self.specs != specs {
+            self.specs.clear();
+            self.specs.extend_from_slice(specs);
+            self.nb = nb;
+            self.edges = leaves_first(specs, nb);
+        }
+        self.edges.is_some()
+    }
+
+    /// The multipliers `mu` (one per row of `rows`, the rows with their joints' indices) from
+    /// the bodies' impulses (`impulse[b]`: linear, then angular about the centre of mass),
+    /// centres of mass `com` and inverse masses `inv_mass` (mass, world inverse inertia).
+    /// Returns `false`, with `mu` untouched, when [`Self::update`] found no forest.
+    pub(super) fn solve(
+        &mut self,
+        impulse: &[[Real; 6]],
+        com: impl Fn(usize) -> Vector,
+        inv_mass: impl Fn(usize) -> (Real, Matrix),
+        rows: &[(usize, RowEval)],
+        mu: &mut [Real],
+    ) -> bool {
+        let Some(edges) = &self.edges else {
+            return false;
+        };
+        // Each subtree's impulse about its top body's centre of mass (about the origin would
+        // lose digits far from it).
+        self.acc.clear();
+        self.acc.extend(
+            impulse
+                .iter()
+                .map(|p| [Vector::new(p[0], p[1], p[2]), Vector::new(p[3], p[4], p[5])]),
+        );
+        for e in edges {
+            let w = self.acc[e.child];
+            let m = self.specs[e.joint].rows;
+            project(
+                &rows[e.row..e.row + m],
+                e.side,
+                inv_mass(e.child),
+                w,
+                &mut mu[e.row..e.row + m],
+            );
+            if let Some(p) = e.parent {
+                let arm = com(e.child) - com(p);
+                self.acc[p][0] += w[0];
+                self.acc[p][1] += w[1] + arm.cross(w[0]);
+            }
+        }
+        true
+    }
+}
+
+/// `mu` solving `J^T mu = w` in the metric of the inverse mass `(inv_m, inv_i)`, with `J` the
+/// rows' blocks on `side`; dependent rows get zero. The common sizes (1 to 6 rows) run on
+/// fixed-size arrays; more rows are dependent anyway and go to
+/// [`dense::cholesky_solve_dropping`].
+fn project(
+    rows: &[(usize, RowEval)],
+    side: usize,
+    inv: (Real, Matrix),
+    w: [Vector; 2],
+    mu: &mut [Real],
+) {
+    match rows.len() {
+        1 => project_n::<1>(rows, side, inv, w, mu),
+        2 => project_n::<2>(rows, side, inv, w, mu),
+        3 => project_n::<3>(rows, side, inv, w, mu),
+        4 => project_n::<4>(rows, side, inv, w, mu),
+        5 => project_n::<5>(rows, side, inv, w, mu),
+        6 => project_n::<6>(rows, side, inv, w, mu),
+        m => {
+            let mut a = [0.0; MAX_JOINT_ROWS * MAX_JOINT_ROWS];
+            let mj: Vec<[Vector; 2]> = rows.iter().map(|r| scaled(r, side, inv)).collect();
+            for (i, r) in rows.iter().enumerate() {
+                let j = block(r, side);
+                for (k, t) in mj[..=i].iter().enumerate() {
+                    let v = j[0].dot(t[0]) + j[1].dot(t[1]);
+                    a[i * m + k] = v;
+                    a[k * m + i] = v;
+                }
+                mu[i] = mj[i][0].dot(w[0]) + mj[i][1].dot(w[1]);
+            }
+            dense::cholesky_solve_dropping(&mut a[..m * m], mu, m);
+        }
+    }
+}
+
+/// A row's Jacobian block on `side` (0: body 1).
+#[inline(always)]
+fn block(r: &(usize, RowEval), side: usize) -> [Vector; 2] {
+    if side == 0 { r.1.j1 } else { r.1.j2 }
+}
+
+/// `M^-1 J_i^T` for one row.
+#[inline(always)]
+fn scaled(r: &(usize, RowEval), side: usize, (inv_m, inv_i): (Real, Matrix)) -> [Vector; 2] {
+    let j = block(r, side);
+    [j[0] * inv_m, inv_i * j[1]]
+}
+
+/// [`project`] for `N` rows: the Gram matrix `J M^-1 J^T` factored as `L D L^T` in place,
+/// without square roots; a pivot below `1e3 eps` of its diagonal marks a dependent row, whose
+/// multiplier is zero (the same test as [`dense::cholesky_solve_dropping`]).
+#[inline(always)]
+#[allow(
+    clippy::needless_range_loop,
+    reason = "index loops with compile-time bounds, fully unrolled"
+)]
+fn project_n<const N: usize>(
+    rows: &[(usize, RowEval)],
+    side: usize,
+    inv: (Real, Matrix),
+    w: [Vector; 2],
+    mu: &mut [Real],
+) {
+    let (rows, mu) = (&rows[..N], &mut mu[..N]);
+    let mut j = [[Vector::ZERO; 2]; N];
+    let mut mj = [[Vector::ZERO; 2]; N];
+    for i in 0..N {
+        j[i] = block(&rows[i], side);
+        mj[i] = scaled(&rows[i], side, inv);
+    }
+    let mut l = [[0.0; N]; N];
+    let mut b = [0.0; N];
+    for i in 0..N {
+        for k in 0..N {
+            if k <= i {
+                l[i][k] = j[i][0].dot(mj[k][0]) + j[i][1].dot(mj[k][1]);
+            }
+        }
+        b[i] = mj[i][0].dot(w[0]) + mj[i][1].dot(w[1]);
+    }
+    // L D L^T, L unit lower (below the diagonal in `l`), D^+ in `dinv`.
+    let mut d = [0.0; N];
+    let mut dinv = [0.0; N];
+    for c in 0..N {
+        let tol = l[c][c].abs() * 1e3 * Real::EPSILON;
+        let mut p = l[c][c];
+        for k in 0..N {
+            if k < c {
+                p -= l[c][k] * l[c][k] * d[k];
+            }
+        }
+        let kept = p > tol;
+        d[c] = if kept { p } else { 0.0 };
+        dinv[c] = if kept { 1.0 / p } else { 0.0 };
+        for i in 0..N {
+            if i > c {
+                let mut v = l[i][c];
+                for k in 0..N {
+                    if k < c {
+                        v -= l[i][k] * l[c][k] * d[k];
+                    }
+                }
+                l[i][c] = v * dinv[c];
+            }
+        }
+    }
+    for i in 0..N {
+        for k in 0..N {
+            if k < i {
+                b[i] -= l[i][k] * b[k];
+            }
+        }
+    }
+    for i in 0..N {
+        b[i] *= dinv[i];
+    }
+    for i in (0..N).rev() {
+        for k in 0..N {
+            if k > i {
+                b[i] -= l[k][i] * b[k];
+            }
+        }
+    }
+    mu.copy_from_slice(&b);
+}
+
+/// The joints with rows ordered from the leaves to the roots (each after every joint below
+/// it), or `None` when they close a loop (through the ground too: the ground, fixed and
+/// kinematic bodies are one node) or join two bodies twice. A tree without a grounded joint is
+/// rooted at its first body.
+fn leaves_first(specs: &[JointBlockSpec], nb: usize) -> Option<Vec<Edge>> {
+    let ground = nb;
+    // Per node: (joint, its first row, the other node, that node's side).
+    let mut adj: Vec<Vec<(usize, usize, usize, usize)>> = vec![Vec::new(); nb + 1];
+    let mut row = 0;
+    for (k, s) in specs.iter().enumerate() {
+        let first = row;
+        row += s.rows;
+        if s.rows == 0 {
+            continue;
+        }
+        let [n1, n2] = s.bodies.map(|b| b.unwrap_or(ground));
+        if n1 == n2 {
+            if n1 == ground {
+                // Rows between two non-dynamic bodies carry no recorded impulse (the KKT
+                // solve gives them zero too); `mu` stays zero.
+                continue;
+            }
+            return None;
+        }
+        adj[n1].push((k, first, n2, 1));
+        adj[n2].push((k, first, n1, 0));
+    }
+    let mut via: Vec<Option<usize>> = vec![None; nb + 1];
+    let mut seen = vec![false; nb + 1];
+    let mut edges = Vec::with_capacity(specs.len());
+    let mut queue = Vec::with_capacity(nb + 1);
+    for root in core::iter::once(ground).chain(0..nb) {
+        if seen[root] {
+            continue;
+        }
+        seen[root] = true;
+        queue.clear();
+        queue.push(root);
+        let mut next = 0;
+        while let Some(&u) = queue.get(next) {
+            next += 1;
+            for &(joint, row, v, side) in &adj[u] {
+                if via[u] == Some(joint) {
+                    continue;
+                }
+                if seen[v] {
+                    return None;
+                }
+                seen[v] = true;
+                via[v] = Some(joint);
+                edges.push(Edge {
+                    joint,
+                    row,
+                    child: v,
+                    side,
+                    parent: (u != ground).then_some(u),
+                });
+                queue.push(v);
+            }
+        }
+    }
+    edges.reverse();
+    Some(edges)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn spec(rows: usize, a: Option<usize>, b: Option<usize>) -> JointBlockSpec {
+        JointBlockSpec {
+            rows,
+            bodies: [a, b],
+        }
+    }
+
+    /// A grounded chain and a floating pair are a forest, children before parents; a loop
+    /// through the ground, a double joint and a joint on one body are not.
+    #[test]
+    fn forests_and_loops() {
+        let chain = [
+            spec(5, None, Some(0)),
+            spec(5, Some(0), Some(1)),
+            spec(3, Some(2), Some(1)),
+        ];
+        let e = leaves_first(&chain, 3).expect("a chain is a tree");
+        let order: Vec<(usize, usize, usize)> =
+            e.iter().map(|e| (e.joint, e.child, e.side)).collect();
+        assert_eq!(order, vec![(2, 2, 0), (1, 1, 1), (0, 0, 1)]);
+        assert_eq!(e[0].row, 10);
+        assert_eq!(e[0].parent, Some(1));
+        assert_eq!(e[2].parent, None);
+        let floating = [spec(6, Some(0), Some(1))];
+        assert_eq!(leaves_first(&floating, 2).map(|e| e.len()), Some(1));
+        let through_ground = [
+            spec(5, None, Some(0)),
+            spec(5, Some(0), Some(1)),
+            spec(5, Some(1), None),
+        ];
+        assert!(leaves_first(&through_ground, 2).is_none());
+        let double = [spec(3, Some(0), Some(1)), spec(2, Some(1), Some(0))];
+        assert!(leaves_first(&double, 2).is_none());
+        let own = [spec(1, Some(0), Some(0))];
+        assert!(leaves_first(&own, 1).is_none());
+    }
+}
