@@ -259,11 +259,14 @@ impl RapierBackend {
             let mp = &rb.mass_properties().local_mprops;
             let inv_i = mp.inv_principal_inertia;
             sc.invertible &= mp.inv_mass > 0.0 && inv_i.min_element() > 0.0;
-            let r = Matrix::from_quat(s.pose.rotation * mp.principal_inertia_local_frame);
-            sc.inv_mass.push((
-                mp.inv_mass,
-                r * Matrix::from_diagonal(inv_i) * r.transpose(),
-            ));
+            let inv_inertia = if inv_i.x == inv_i.y && inv_i.y == inv_i.z {
+                // Equal principal moments: the same in every frame.
+                Matrix::from_diagonal(inv_i)
+            } else {
+                let r = Matrix::from_quat(s.pose.rotation * mp.principal_inertia_local_frame);
+                r * Matrix::from_diagonal(inv_i) * r.transpose()
+            };
+            sc.inv_mass.push((mp.inv_mass, inv_inertia));
             let (v, w) = self.velocity(sets.physics, *b);
             let p = (v - s.linvel) * m - s.force * h;
             let l = crate::body::angular_momentum(rb, w) - s.momentum - s.torque * h;
@@ -276,9 +279,12 @@ impl RapierBackend {
 const NONE: usize = usize::MAX;
 
 /// The pose and centre of mass halfway between `a` and `b` (translation and centre of mass
-/// linearly, rotation by slerp).
+/// linearly, rotation by slerp: at one half that is the normalised sum of the two unit
+/// quaternions in the same hemisphere, without slerp's inverse cosine and sines).
 fn halfway(a: (Pose, Vector), b: (Pose, Vector)) -> (Pose, Vector) {
-    let rotation = a.0.rotation.slerp(b.0.rotation, 0.5);
+    let (qa, qb) = (a.0.rotation, b.0.rotation);
+    let qb = if qa.dot(qb) < 0.0 { -qb } else { qb };
+    let rotation = (qa + qb).normalize();
     let translation = (a.0.translation + b.0.translation) * 0.5;
     (Pose::from_parts(translation, rotation), (a.1 + b.1) * 0.5)
 }
