@@ -33,6 +33,10 @@ fn principal(rb: &RigidBody) -> (Rotation, Vector) {
 /// the world inertia tensor ([`world_inertia`] costs two 3x3 products).
 pub(crate) fn angular_momentum(rb: &RigidBody, w: Vector) -> Vector {
     let (q, moments) = principal(rb);
+    // Equal moments: the same inertia in every frame, no turn there and back.
+    if isotropic(moments) {
+        return moments.x * w;
+    }
     q * (moments * (q.inverse() * w))
 }
 
@@ -40,6 +44,9 @@ pub(crate) fn angular_momentum(rb: &RigidBody, w: Vector) -> Vector {
 /// the world frame (see [`angular_momentum`]).
 pub(crate) fn rotational_energy(rb: &RigidBody, w: Vector) -> Real {
     let (q, moments) = principal(rb);
+    if isotropic(moments) {
+        return 0.5 * moments.x * w.length_squared();
+    }
     let wl = q.inverse() * w;
     0.5 * (moments * wl).dot(wl)
 }
