@@ -121,7 +121,10 @@ fn project(
         6 => project_n::<6>(rows, side, inv, w, mu),
         m => {
             let mut a = [0.0; MAX_JOINT_ROWS * MAX_JOINT_ROWS];
-            let mj: Vec<[Vector; 2]> = rows.iter().map(|r| scaled(r, side, inv)).collect();
+            let mut mj = [[Vector::ZERO; 2]; MAX_JOINT_ROWS];
+            for (t, r) in mj.iter_mut().zip(rows) {
+                *t = scaled(r, side, inv);
+            }
             for (i, r) in rows.iter().enumerate() {
                 let j = block(r, side);
                 for (k, t) in mj[..=i].iter().enumerate() {
@@ -300,6 +303,58 @@ mod tests {
         JointBlockSpec {
             rows,
             bodies: [a, b],
+        }
+    }
+
+    fn row(lin: [Real; 3], ang: [Real; 3]) -> (usize, RowEval) {
+        let j = [Vector::from_array(lin), Vector::from_array(ang)];
+        (
+            0,
+            RowEval {
+                value: 0.0,
+                j1: j.map(|v| -v),
+                j2: j,
+            },
+        )
+    }
+
+    /// Consistent impulses come back exactly whatever the metric: five independent rows
+    /// (fixed-size kernel) and the same five plus two copies (more than six rows: the dense
+    /// fallback, the copies dependent and zero). Round-off bound: the rows are O(1) and the
+    /// Gram matrix's condition number is in the tens, so `1e4 eps` leaves a factor 100 (f32 and
+    /// f64 alike).
+    #[test]
+    fn projection_recovers_consistent_multipliers() {
+        let rows = vec![
+            row([1.0, 0.0, 0.0], [0.0, 0.2, -0.1]),
+            row([0.0, 1.0, 0.0], [0.3, 0.0, 0.5]),
+            row([0.0, 0.0, 1.0], [-0.2, 0.1, 0.0]),
+            row([0.0, 0.0, 0.0], [1.0, 0.0, 0.0]),
+            row([0.0, 0.0, 0.0], [0.0, 0.0, 1.0]),
+        ];
+        let truth = [0.7, -1.3, 2.1, 0.4, -0.9];
+        let inv = (0.5, Matrix::from_diagonal(Vector::new(3.0, 4.0, 5.0)));
+        for side in [0, 1] {
+            let block = |r: &(usize, RowEval)| if side == 0 { r.1.j1 } else { r.1.j2 };
+            let mut w = [Vector::ZERO; 2];
+            for (r, m) in rows.iter().zip(truth) {
+                w[0] += block(r)[0] * m;
+                w[1] += block(r)[1] * m;
+            }
+            let mut mu = [0.0; 5];
+            project(&rows, side, inv, w, &mut mu);
+            let tol = 1e4 * Real::EPSILON;
+            for (a, b) in mu.iter().zip(truth) {
+                assert!((a - b).abs() <= tol, "{mu:?}");
+            }
+            let mut more = rows.clone();
+            more.push(rows[1]);
+            more.push(rows[3]);
+            let mut mu = [0.0; 7];
+            project(&more, side, inv, w, &mut mu);
+            for (a, b) in mu.iter().zip(truth.iter().chain(&[0.0, 0.0])) {
+                assert!((a - b).abs() <= tol, "{mu:?}");
+            }
         }
     }
 
