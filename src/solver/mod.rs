@@ -1,3 +1,4 @@
 //! Linear algebra for constraint solves.
 pub mod dense;
+pub mod forest;
 pub mod kkt;

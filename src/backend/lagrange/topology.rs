@@ -8,6 +8,7 @@ use crate::joint_set::{JointSet, RapierJoint};
 use crate::math::rapier::dynamics::{JointAxesMask, RigidBodyHandle, RigidBodySet};
 use crate::math::{Pose, Vector};
 use crate::settings::{Backend, Integrator};
+use crate::solver::forest;
 use crate::solver::kkt::{JAC_ROW_STRIDE, JointBlockSpec, KktSolver};
 use crate::spring::SpringSet;
 
@@ -383,15 +384,10 @@ fn contact_rows_in_rapier(sets: &mut Sets) {
 /// The island's joint blocks form no closed loop: in the graph of its `nb` dynamic bodies and
 /// one node for everything else (the ground, fixed and kinematic bodies, where a block has an
 /// absent side), no block joins two nodes that other blocks already connect. Two blocks
-/// between the same two bodies, or two blocks from one body to the ground, make a loop.
+/// between the same two bodies, or two blocks from one body to the ground, make a loop (see
+/// [`forest::leaves_first`]).
 fn is_tree(nb: usize, specs: &[JointBlockSpec]) -> bool {
-    let mut parent: Vec<usize> = (0..=nb).collect();
-    specs.iter().all(|s| {
-        let [a, b] = s.bodies.map(|b| b.unwrap_or(nb));
-        let (ra, rb) = (root(&mut parent, a), root(&mut parent, b));
-        parent[ra.max(rb)] = ra.min(rb);
-        ra != rb
-    })
+    forest::leaves_first(specs, nb).is_some()
 }
 
 /// The root of `i` in the union-find forest `p` (path halving).
