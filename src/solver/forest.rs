@@ -10,8 +10,6 @@ use super::kkt::JointBlockSpec;
 pub(crate) struct Edge {
     /// The joint (index in the specs).
     pub(crate) joint: usize,
-    /// Its first row (in the specs' row order).
-    pub(crate) row: usize,
     /// The child body (its index in the specs) and its side of the joint (0: body 1).
     pub(crate) child: usize,
     pub(crate) side: usize,
@@ -25,12 +23,9 @@ pub(crate) struct Edge {
 /// rooted at its first body.
 pub(crate) fn leaves_first(specs: &[JointBlockSpec], nb: usize) -> Option<Vec<Edge>> {
     let ground = nb;
-    // Per node: (joint, its first row, the other node, that node's side).
-    let mut adj: Vec<Vec<(usize, usize, usize, usize)>> = vec![Vec::new(); nb + 1];
-    let mut row = 0;
+    // Per node: (joint, the other node, that node's side).
+    let mut adj: Vec<Vec<(usize, usize, usize)>> = vec![Vec::new(); nb + 1];
     for (k, s) in specs.iter().enumerate() {
-        let first = row;
-        row += s.rows;
         if s.rows == 0 {
             continue;
         }
@@ -42,8 +37,8 @@ pub(crate) fn leaves_first(specs: &[JointBlockSpec], nb: usize) -> Option<Vec<Ed
             }
             return None;
         }
-        adj[n1].push((k, first, n2, 1));
-        adj[n2].push((k, first, n1, 0));
+        adj[n1].push((k, n2, 1));
+        adj[n2].push((k, n1, 0));
     }
     let mut via: Vec<Option<usize>> = vec![None; nb + 1];
     let mut seen = vec![false; nb + 1];
@@ -59,7 +54,7 @@ pub(crate) fn leaves_first(specs: &[JointBlockSpec], nb: usize) -> Option<Vec<Ed
         let mut next = 0;
         while let Some(&u) = queue.get(next) {
             next += 1;
-            for &(joint, row, v, side) in &adj[u] {
+            for &(joint, v, side) in &adj[u] {
                 if via[u] == Some(joint) {
                     continue;
                 }
@@ -70,7 +65,6 @@ pub(crate) fn leaves_first(specs: &[JointBlockSpec], nb: usize) -> Option<Vec<Ed
                 via[v] = Some(joint);
                 edges.push(Edge {
                     joint,
-                    row,
                     child: v,
                     side,
                     parent: (u != ground).then_some(u),
@@ -107,7 +101,6 @@ mod tests {
         let order: Vec<(usize, usize, usize)> =
             e.iter().map(|e| (e.joint, e.child, e.side)).collect();
         assert_eq!(order, vec![(2, 2, 0), (1, 1, 1), (0, 0, 1)]);
-        assert_eq!(e[0].row, 10);
         assert_eq!(e[0].parent, Some(1));
         assert_eq!(e[2].parent, None);
         let floating = [spec(6, Some(0), Some(1))];

@@ -17,7 +17,8 @@
 use crate::math::{Matrix, Real, Vector};
 use crate::rows::RowEval;
 use crate::solver::dense;
-use crate::solver::forest::{Edge, leaves_first};
+pub(super) use crate::solver::forest::Edge;
+use crate::solver::forest::leaves_first;
 use crate::solver::kkt::{JointBlockSpec, MAX_JOINT_ROWS};
 
 /// The recovery's joints ordered from the leaves to the roots, or `None` when they do not
@@ -45,17 +46,16 @@ impl Forest {
         self.edges.is_some()
     }
 
-    /// The multipliers `mu` (one per row of `rows`, the rows with their joints' indices) from
-    /// the bodies' impulses (`impulse[b]`: linear, then angular about the centre of mass),
-    /// centres of mass `com` and inverse masses `inv_mass` (mass, world inverse inertia).
-    /// Returns `false`, with `mu` untouched, when [`Self::update`] found no forest.
-    pub(super) fn solve(
+    /// Walks the joints from the leaves to the roots, handing `joint` each joint's edge and the
+    /// impulse of the subtree it carries (linear, then angular about the child's centre of
+    /// mass), from the bodies' impulses (`impulse[b]`: linear, then angular about the centre of
+    /// mass) and centres of mass `com`. Returns `false`, calling nothing, when
+    /// [`Self::update`] found no forest.
+    pub(super) fn walk(
         &mut self,
         impulse: &[[Real; 6]],
         com: impl Fn(usize) -> Vector,
-        inv_mass: impl Fn(usize) -> (Real, Matrix),
-        rows: &[(usize, RowEval)],
-        mu: &mut [Real],
+        mut joint: impl FnMut(&Edge, [Vector; 2]),
     ) -> bool {
         let Some(edges) = &self.edges else {
             return false;
@@ -70,14 +70,7 @@ impl Forest {
         );
         for e in edges {
             let w = self.acc[e.child];
-            let m = self.specs[e.joint].rows;
-            project(
-                &rows[e.row..e.row + m],
-                e.side,
-                inv_mass(e.child),
-                w,
-                &mut mu[e.row..e.row + m],
-            );
+            joint(e, w);
             if let Some(p) = e.parent {
                 let arm = com(e.child) - com(p);
                 self.acc[p][0] += w[0];
@@ -92,8 +85,8 @@ impl Forest {
 /// rows' blocks on `side`; dependent rows get zero. The common sizes (1 to 6 rows) run on
 /// fixed-size arrays; more rows are dependent anyway and go to
 /// [`dense::cholesky_solve_dropping`].
-fn project(
-    rows: &[(usize, RowEval)],
+pub(super) fn project(
+    rows: &[RowEval],
     side: usize,
     inv: (Real, Matrix),
     w: [Vector; 2],
@@ -128,13 +121,13 @@ fn project(
 
 /// A row's Jacobian block on `side` (0: body 1).
 #[inline(always)]
-fn block(r: &(usize, RowEval), side: usize) -> [Vector; 2] {
-    if side == 0 { r.1.j1 } else { r.1.j2 }
+fn block(r: &RowEval, side: usize) -> [Vector; 2] {
+    if side == 0 { r.j1 } else { r.j2 }
 }
 
 /// `M^-1 J_i^T` for one row.
 #[inline(always)]
-fn scaled(r: &(usize, RowEval), side: usize, (inv_m, inv_i): (Real, Matrix)) -> [Vector; 2] {
+fn scaled(r: &RowEval, side: usize, (inv_m, inv_i): (Real, Matrix)) -> [Vector; 2] {
     let j = block(r, side);
     [j[0] * inv_m, inv_i * j[1]]
 }
@@ -148,7 +141,7 @@ fn scaled(r: &(usize, RowEval), side: usize, (inv_m, inv_i): (Real, Matrix)) -> 
     reason = "index loops with compile-time bounds, fully unrolled"
 )]
 fn project_n<const N: usize>(
-    rows: &[(usize, RowEval)],
+    rows: &[RowEval],
     side: usize,
     inv: (Real, Matrix),
     w: [Vector; 2],
@@ -221,16 +214,13 @@ fn project_n<const N: usize>(
 mod tests {
     use super::*;
 
-    fn row(lin: [Real; 3], ang: [Real; 3]) -> (usize, RowEval) {
+    fn row(lin: [Real; 3], ang: [Real; 3]) -> RowEval {
         let j = [Vector::from_array(lin), Vector::from_array(ang)];
-        (
-            0,
-            RowEval {
-                value: 0.0,
-                j1: j.map(|v| -v),
-                j2: j,
-            },
-        )
+        RowEval {
+            value: 0.0,
+            j1: j.map(|v| -v),
+            j2: j,
+        }
     }
 
     /// Consistent impulses come back exactly whatever the metric: five independent rows
@@ -250,7 +240,7 @@ mod tests {
         let truth = [0.7, -1.3, 2.1, 0.4, -0.9];
         let inv = (0.5, Matrix::from_diagonal(Vector::new(3.0, 4.0, 5.0)));
         for side in [0, 1] {
-            let block = |r: &(usize, RowEval)| if side == 0 { r.1.j1 } else { r.1.j2 };
+            let block = |r: &RowEval| if side == 0 { r.j1 } else { r.j2 };
             let mut w = [Vector::ZERO; 2];
             for (r, m) in rows.iter().zip(truth) {
                 w[0] += block(r)[0] * m;
