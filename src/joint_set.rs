@@ -915,6 +915,13 @@ impl JointEntry {
         self.state.output.force = axes_i.transpose() * force;
         self.state.output.moment = axes_i.transpose() * moment;
     }
+
+    /// Writes the reaction force and moment on node J (world frame, the moment about node J)
+    /// into the output in frame I with axes `axes_i` (columns, world frame).
+    pub(crate) fn set_reaction_in(&mut self, axes_i: &Matrix, force: Vector, moment: Vector) {
+        self.state.output.force = axes_i.transpose() * force;
+        self.state.output.moment = axes_i.transpose() * moment;
+    }
 }
 
 impl JointEntry {

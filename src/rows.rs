@@ -121,6 +121,16 @@ pub fn screw_angle(f: &FramePair, reference: Real) -> Real {
     reference + d
 }
 
+/// How a row acts on body 2 at frame 2's origin `p2` (see [`RowKind::node_wrench`]); on body
+/// 1 it acts with the opposite wrench at the same point.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum NodeWrench {
+    /// A force along the direction, no moment about `p2`.
+    Force(Vector),
+    /// A moment about the direction, no force.
+    Moment(Vector),
+}
+
 impl RowKind {
     /// The row that holds `dof` at its initial value.
     pub const fn lock(dof: Dof) -> RowKind {
@@ -328,6 +338,40 @@ impl RowKind {
                     j2: [Vector::ZERO, -n],
                 }
             }
+        }
+    }
+
+    /// The row's wrench per unit multiplier on body 2 about frame 2's origin `p2` when it is a
+    /// pure force or a pure moment there (with the opposite one on body 1 about the same
+    /// point), from [`RowKind::eval`]'s Jacobian: a translation row `J2 = (e, (p2 - c2) x e)`
+    /// is the force `e` at `p2`, `J1 = (-e, -(p2 - c1) x e)` its opposite; the rigid link's
+    /// row acts along the line of the nodes, so about `p2` as about `p1`; a rotation row is a
+    /// moment. `None` for a screw's coupled row (force and moment along e3) and an idle spin's
+    /// one-sided row.
+    pub fn node_wrench(self, f: &FramePair) -> Option<NodeWrench> {
+        match self {
+            RowKind::Linear { axis } => Some(NodeWrench::Force(f.r1.col(axis))),
+            RowKind::Angular { a, b, .. } => {
+                Some(NodeWrench::Moment(-f.r1.col(a).cross(f.r2.col(b))))
+            }
+            RowKind::Drive { dof, .. } => {
+                let e = f.r1.col(dof.axis());
+                Some(if dof.is_rotation() {
+                    NodeWrench::Moment(e)
+                } else {
+                    NodeWrench::Force(e)
+                })
+            }
+            RowKind::Distance { .. } => {
+                let d = f.p2 - f.p1;
+                let len = d.length();
+                Some(NodeWrench::Force(if len > 0.0 {
+                    d / len
+                } else {
+                    f.r1.col(0)
+                }))
+            }
+            RowKind::Screw { .. } | RowKind::Spin { .. } => None,
         }
     }
 }

@@ -20,9 +20,9 @@
 //! `(J M^-1 J^T) mu = J M^-1 p`, with `J` the joints' own rows ([`crate::rows`]) at the poses
 //! halfway through the span (the constraint forces turn with the bodies over it). Where the
 //! joints form a forest (no closed loop), the split runs joint by joint from the leaves, each
-//! joint carrying the impulse of the bodies beyond it (`reactions/forest.rs`: no
-//! factorisation; 0.85 to 0.91 of the impulse backend's step, measured on the benchmark
-//! scenes); loops take one KKT factorisation and solve. This
+//! joint carrying the impulse of the bodies beyond it, taken apart into its rows' forces and
+//! moments at node J (`reactions/forest.rs`: no factorisation, in one walk that writes the
+//! reactions); loops take one KKT factorisation and solve. This
 //! sidesteps Rapier's `ImpulseJoint::impulses`, which are coefficients in a Gram-Schmidt-skewed
 //! basis of the last substep only, and works for multibody joints, which write no impulses back.
 //!

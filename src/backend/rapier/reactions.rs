@@ -9,7 +9,7 @@ use arrayvec::ArrayVec;
 use crate::joint_set::JointEntry;
 use crate::math::rapier::dynamics::{RigidBodyHandle, RigidBodySet};
 use crate::math::{Matrix, Pose, Real, Vector};
-use crate::rows::{FramePair, RowEval, RowKind};
+use crate::rows::{FramePair, NodeWrench, RowEval, RowKind};
 use crate::solver::kkt::{JointBlockSpec, KktSolver, MAX_JOINT_ROWS};
 
 use super::super::Sets;
@@ -157,25 +157,49 @@ impl RapierBackend {
                     return;
                 };
                 let places = specs[edge.joint].bodies;
-                let f = FramePair::at(
-                    &e.low,
+                let (pose1, pose2) = (
                     pose_at(bodies, mid, e.body1, places[0]),
                     pose_at(bodies, mid, e.body2, places[1]),
                 );
-                let mut rows = ArrayVec::<RowEval, MAX_JOINT_ROWS>::new();
-                rows.extend(e.state.rows.iter().map(|r| r.eval(&f)));
+                let f = FramePair::at(&e.low, pose1, pose2);
+                let m = e.state.rows.len();
                 let mut mu = [0.0; MAX_JOINT_ROWS];
-                let mu = &mut mu[..rows.len()];
-                forest::project(&rows, edge.side, inv_mass[edge.child], w, mu);
-                let (mut force, mut torque) = (Vector::ZERO, Vector::ZERO);
-                for ((ev, &m), r) in rows.iter().zip(mu.iter()).zip(&e.state.rows) {
-                    force += ev.j2[0] * (m / h);
-                    torque += ev.j2[1] * (m / h);
+                let mu = &mut mu[..m];
+                // Pure forces and moments at the node where the rows allow it (every kind's
+                // but the screw's and an idle spin's), else the child's mass metric.
+                let mut dirs = ArrayVec::<NodeWrench, MAX_JOINT_ROWS>::new();
+                let at_node = e
+                    .state
+                    .rows
+                    .iter()
+                    .all(|r| r.node_wrench(&f).is_some_and(|d| dirs.try_push(d).is_ok()));
+                let child_com = if edge.side == 0 { f.c1 } else { f.c2 };
+                let node = at_node
+                    .then(|| forest::project_at_node(&dirs, edge.side, f.p2 - child_com, w, mu))
+                    .flatten();
+                if let Some([force, moment]) = node {
+                    // The step's mean force and moment about node J, in frame I halfway
+                    // through the step, where the rows took them (a free direction's
+                    // component is zero there).
+                    let axes_i = Matrix::from_quat(pose1.0.rotation * e.ansys[0].rotation);
+                    e.set_reaction_in(&axes_i, force / h, moment / h);
+                } else {
+                    let mut rows = ArrayVec::<RowEval, MAX_JOINT_ROWS>::new();
+                    rows.extend(e.state.rows.iter().map(|r| r.eval(&f)));
+                    forest::project(&rows, edge.side, inv_mass[edge.child], w, mu);
+                    let (force, torque) = rows
+                        .iter()
+                        .zip(mu.iter())
+                        .fold((Vector::ZERO, Vector::ZERO), |(fo, to), (ev, &m)| {
+                            (fo + ev.j2[0] * (m / h), to + ev.j2[1] * (m / h))
+                        });
+                    e.set_reaction(bodies, force, torque);
+                }
+                for (r, &m) in e.state.rows.iter().zip(mu.iter()) {
                     if let Some(rate) = drive_rate(e, r, span) {
                         ledger.work += m / h * rate * duration;
                     }
                 }
-                e.set_reaction(bodies, force, torque);
             },
         );
         // Rows between two bodies that are not recorded act on none: no reaction.

@@ -8,14 +8,24 @@
 //! a common point, to joint `k`'s alone: `J_c^T mu_k = sum_{b in S} (p_b, l_b + (x_b - x_c) x
 //! p_b)`, with `J_c` the joint's Jacobian block on its child `c` and `x` the centres of mass
 //! halfway through the span (where the rows are evaluated). That is 6 equations for `m_k <= 6`
-//! independent rows; they are solved in the child's mass metric,
-//! `(J_c M_c^-1 J_c^T) mu_k = J_c M_c^-1 w`, which is the KKT solve's
-//! `(J M^-1 J^T) mu = J M^-1 p` when the impulses are consistent (Rapier's are up to its
-//! substeps' pose changes and softness) and costs `O(m_k^3)` per joint instead of a block
-//! factorisation and two sweeps.
+//! independent rows, exact when the impulses are consistent (Rapier's are up to its substeps'
+//! pose changes and softness); otherwise a least-squares solve in some metric. Two are used:
+//!
+//! | rows | metric | why |
+//! |---|---|---|
+//! | every one a pure force or a pure moment at node J ([`crate::rows::RowKind::node_wrench`]: all but a screw's and an idle spin's) | Euclidean, forces and moments apart at node J ([`project_at_node`]) | the two groups decouple into least-squares problems of at most three directions (a translation row's axis is one of frame I's: its multiplier is a dot product); a free direction keeps nothing |
+//! | otherwise | the child's mass, `(J_c M_c^-1 J_c^T) mu_k = J_c M_c^-1 w` ([`project`]) | the KKT solve's `(J M^-1 J^T) mu = J M^-1 p` on one joint |
+//!
+//! Either costs `O(m_k^3)` per joint instead of a block factorisation and two sweeps. At node
+//! J the reaction is written as it was taken: the force and moment about node J in frame I
+//! halfway through the span. With the mass metric the wrench on body 2's centre of mass goes
+//! to node J and frame I at the step's end; that put up to 0.11 `m g L` about the free axis of
+//! a swinging pendulum's pin (`tests/rapier_reaction_free_directions.rs`).
+
+use arrayvec::ArrayVec;
 
 use crate::math::{Matrix, Real, Vector};
-use crate::rows::RowEval;
+use crate::rows::{NodeWrench, RowEval};
 use crate::solver::dense;
 pub(super) use crate::solver::forest::Edge;
 use crate::solver::forest::leaves_first;
@@ -119,6 +129,78 @@ pub(super) fn project(
     }
 }
 
+/// `mu` solving `J^T mu = w` for a joint whose rows are pure forces or pure moments at frame
+/// 2's origin (`dirs`, per row: its wrench on body 2 there, see [`RowKind::node_wrench`]), in
+/// the Euclidean metric of forces and of moments at that node. The two groups decouple, each a
+/// least-squares problem over at most three directions; dependent rows get zero. This equals
+/// [`project`] when the impulses are consistent, and leaves out the mass metric's coupling of
+/// the forces with the moments through the lever arms (an error in a free direction of the
+/// moment, which Rapier's substeps and soft joints leave, stays out of the forces). `side` is
+/// the child's (0: body 1), `arm` the node less the child's centre of mass. Returns the wrench
+/// on body 2 (force, moment about the node), or `None` when a group has more than three rows.
+///
+/// [`RowKind::node_wrench`]: crate::rows::RowKind::node_wrench
+pub(super) fn project_at_node(
+    dirs: &[NodeWrench],
+    side: usize,
+    arm: Vector,
+    w: [Vector; 2],
+    mu: &mut [Real],
+) -> Option<[Vector; 2]> {
+    // The subtree's impulse moved to the node, as body 2 takes it (body 1 takes the opposite).
+    let s = if side == 1 { 1.0 } else { -1.0 };
+    let force = w[0] * s;
+    let moment = (w[1] - arm.cross(w[0])) * s;
+    let mut forces = ArrayVec::<(usize, Vector), 3>::new();
+    let mut moments = ArrayVec::<(usize, Vector), 3>::new();
+    for (i, d) in dirs.iter().enumerate() {
+        match *d {
+            NodeWrench::Force(v) => forces.try_push((i, v)).ok()?,
+            NodeWrench::Moment(v) => moments.try_push((i, v)).ok()?,
+        }
+    }
+    Some([group(&forces, force, mu), group(&moments, moment, mu)])
+}
+
+/// One group of [`project_at_node`]: the multipliers of the directions `g` (row, direction)
+/// whose combination comes closest to `target` (into `mu` at their rows); returns that
+/// combination.
+fn group(g: &[(usize, Vector)], target: Vector, mu: &mut [Real]) -> Vector {
+    match g.len() {
+        0 => Vector::ZERO,
+        1 => group_n::<1>(g, target, mu),
+        2 => group_n::<2>(g, target, mu),
+        _ => group_n::<3>(g, target, mu),
+    }
+}
+
+/// [`group`] for `N` directions.
+#[inline(always)]
+#[allow(
+    clippy::needless_range_loop,
+    reason = "index loops with compile-time bounds, fully unrolled"
+)]
+fn group_n<const N: usize>(g: &[(usize, Vector)], target: Vector, mu: &mut [Real]) -> Vector {
+    let g = &g[..N];
+    let mut l = [[0.0; N]; N];
+    let mut b = [0.0; N];
+    for i in 0..N {
+        for k in 0..N {
+            if k <= i {
+                l[i][k] = g[i].1.dot(g[k].1);
+            }
+        }
+        b[i] = g[i].1.dot(target);
+    }
+    ldl_solve(&mut l, &mut b);
+    let mut sum = Vector::ZERO;
+    for i in 0..N {
+        mu[g[i].0] = b[i];
+        sum += g[i].1 * b[i];
+    }
+    sum
+}
+
 /// A row's Jacobian block on `side` (0: body 1).
 #[inline(always)]
 fn block(r: &RowEval, side: usize) -> [Vector; 2] {
@@ -164,6 +246,20 @@ fn project_n<const N: usize>(
         }
         b[i] = mj[i][0].dot(w[0]) + mj[i][1].dot(w[1]);
     }
+    ldl_solve(&mut l, &mut b);
+    mu.copy_from_slice(&b);
+}
+
+/// Solves `G x = b` in place (`x` into `b`) for the symmetric positive semidefinite `G` whose
+/// lower triangle is in `l`: `L D L^T` in place, without square roots; a pivot below `1e3 eps`
+/// of its diagonal marks a dependent row, whose unknown is zero (the same test as
+/// [`dense::cholesky_solve_dropping`]).
+#[inline(always)]
+#[allow(
+    clippy::needless_range_loop,
+    reason = "index loops with compile-time bounds, fully unrolled"
+)]
+fn ldl_solve<const N: usize>(l: &mut [[Real; N]; N], b: &mut [Real; N]) {
     // L D L^T, L unit lower (below the diagonal in `l`), D^+ in `dinv`.
     let mut d = [0.0; N];
     let mut dinv = [0.0; N];
@@ -207,7 +303,6 @@ fn project_n<const N: usize>(
             }
         }
     }
-    mu.copy_from_slice(&b);
 }
 
 #[cfg(test)]
