@@ -24,20 +24,14 @@
 //!   of it; 1e-6 as above.
 #![cfg(feature = "f64")]
 
+mod common;
+
+use common::full_outputs;
+
 use rapier3d_mpc184::math::rapier::prelude::{MassProperties, RigidBodyBuilder, RigidBodyHandle};
 use rapier3d_mpc184::prelude::*;
 
 const G: Real = 9.81;
-
-fn settings(backend: Backend) -> WorldSettings {
-    WorldSettings {
-        dt: 1.0 / 60.0,
-        substeps: 4,
-        backend,
-        outputs: Outputs::Full,
-        ..Default::default()
-    }
-}
 
 fn body(world: &mut Mpc184World, at: Vector, mass: Real, v: Vector, w: Vector) -> RigidBodyHandle {
     world.physics.bodies.insert(
@@ -57,7 +51,7 @@ fn body(world: &mut Mpc184World, at: Vector, mass: Real, v: Vector, w: Vector) -
 #[test]
 fn hanging_chain_joints_carry_the_weight_below() {
     for backend in [Backend::RapierImpulse, Backend::RapierMultibody] {
-        let mut world = Mpc184World::new(settings(backend));
+        let mut world = Mpc184World::new(full_outputs(backend));
         world.physics.gravity = Vector::new(0.0, -G, 0.0);
         let at = |y: Real| Vector::new(0.0, y, 0.0);
         let a = body(&mut world, at(-0.5), 1.0, Vector::ZERO, Vector::ZERO);
@@ -101,7 +95,7 @@ fn hanging_chain_joints_carry_the_weight_below() {
 
 #[test]
 fn floating_pair_joint_carries_the_centripetal_force() {
-    let mut world = Mpc184World::new(settings(Backend::RapierImpulse));
+    let mut world = Mpc184World::new(full_outputs(Backend::RapierImpulse));
     world.physics.gravity = Vector::ZERO;
     let omega = Vector::new(0.0, 0.0, 2.0);
     let x1 = Vector::new(-0.75, 0.0, 0.0);
@@ -134,7 +128,7 @@ fn floating_pair_joint_carries_the_centripetal_force() {
 
 #[test]
 fn loop_through_the_ground_shares_the_weight() {
-    let mut world = Mpc184World::new(settings(Backend::RapierImpulse));
+    let mut world = Mpc184World::new(full_outputs(Backend::RapierImpulse));
     world.physics.gravity = Vector::new(0.0, -G, 0.0);
     let bar = body(&mut world, Vector::ZERO, 2.0, Vector::ZERO, Vector::ZERO);
     let joints = [-0.5, 0.5].map(|x| {

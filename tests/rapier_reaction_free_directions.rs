@@ -21,21 +21,15 @@
 //! error (Rapier's soft joints), which is no round-off.
 #![cfg(feature = "f64")]
 
+mod common;
+
+use common::full_outputs;
+
 use rapier3d_mpc184::prelude::*;
 use rapier3d_mpc184::studies::benchmarks;
 
 /// Relative bound on a free component (see the header).
 const ROUND_OFF: Real = 1e-12;
-
-fn settings(backend: Backend) -> WorldSettings {
-    WorldSettings {
-        dt: 1.0 / 60.0,
-        substeps: 4,
-        backend,
-        outputs: Outputs::Full,
-        ..Default::default()
-    }
-}
 
 /// The pin of a 1 m, 1 kg pendulum released at 90 deg, over its first swing to the bottom and
 /// past it: its moment (every axis: the free one and the two constrained ones, which a planar
@@ -44,7 +38,7 @@ fn settings(backend: Backend) -> WorldSettings {
 fn pendulum_pin_carries_no_moment() {
     for backend in [Backend::RapierImpulse, Backend::RapierMultibody] {
         let mut b = benchmarks::chain(
-            settings(backend),
+            full_outputs(backend),
             1,
             1.0,
             1.0,
@@ -78,7 +72,7 @@ fn pendulum_pin_carries_no_moment() {
 #[test]
 fn free_translations_and_spherical_moments_carry_nothing() {
     for backend in [Backend::RapierImpulse, Backend::RapierMultibody] {
-        let mut b = benchmarks::mixed(settings(backend), 2).expect("mixed scene");
+        let mut b = benchmarks::mixed(full_outputs(backend), 2).expect("mixed scene");
         let mut checked = 0;
         for step in 1..=60 {
             b.world.step().expect("step");

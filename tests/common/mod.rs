@@ -3,6 +3,18 @@
 
 pub use rapier3d_mpc184::studies::metrics::*;
 
+/// A step of 1/60 s in 4 substeps on `backend`, every output written (the reactions too).
+#[allow(dead_code, reason = "only the reaction tests use it")]
+pub fn full_outputs(backend: Backend) -> WorldSettings {
+    WorldSettings {
+        dt: 1.0 / 60.0,
+        substeps: 4,
+        backend,
+        outputs: Outputs::Full,
+        ..Default::default()
+    }
+}
+
 /// The path of the example `name` (`examples/NAME.rs`), which `cargo test` builds beside the
 /// test binaries (`target/<profile>/examples/`) before it runs any test.
 #[allow(dead_code, reason = "only the tests that run examples use it")]

@@ -27,8 +27,7 @@ use arrayvec::ArrayVec;
 use crate::math::{Matrix, Real, Vector};
 use crate::rows::{NodeWrench, RowEval};
 use crate::solver::dense;
-pub(super) use crate::solver::forest::Edge;
-use crate::solver::forest::leaves_first;
+use crate::solver::forest::{Edge, leaves_first};
 use crate::solver::kkt::{JointBlockSpec, MAX_JOINT_ROWS};
 
 /// The recovery's joints ordered from the leaves to the roots, or `None` when they do not
