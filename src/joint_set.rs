@@ -912,8 +912,7 @@ impl JointEntry {
         let node_j = *rb2.position() * self.ansys[1].translation;
         let axes_i = Matrix::from_quat(pose1.rotation * self.ansys[0].rotation);
         let moment = torque - (node_j - rb2.center_of_mass()).cross(force);
-        self.state.output.force = axes_i.transpose() * force;
-        self.state.output.moment = axes_i.transpose() * moment;
+        self.set_reaction_in(&axes_i, force, moment);
     }
 
     /// Writes the reaction force and moment on node J (world frame, the moment about node J)

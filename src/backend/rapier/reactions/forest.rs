@@ -58,16 +58,15 @@ impl Forest {
     /// Walks the joints from the leaves to the roots, handing `joint` each joint's edge and the
     /// impulse of the subtree it carries (linear, then angular about the child's centre of
     /// mass), from the bodies' impulses (`impulse[b]`: linear, then angular about the centre of
-    /// mass) and centres of mass `com`. Returns `false`, calling nothing, when
-    /// [`Self::update`] found no forest.
+    /// mass) and centres of mass `com`. Calls nothing when [`Self::update`] found no forest.
     pub(super) fn walk(
         &mut self,
         impulse: &[[Real; 6]],
         com: impl Fn(usize) -> Vector,
         mut joint: impl FnMut(&Edge, [Vector; 2]),
-    ) -> bool {
+    ) {
         let Some(edges) = &self.edges else {
-            return false;
+            return;
         };
         // Each subtree's impulse about its top body's centre of mass (about the origin would
         // lose digits far from it).
@@ -86,7 +85,6 @@ impl Forest {
                 self.acc[p][1] += w[1] + arm.cross(w[0]);
             }
         }
-        true
     }
 }
 
