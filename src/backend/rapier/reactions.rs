@@ -23,6 +23,10 @@ use super::RapierBackend;
 pub(crate) struct Scratch {
     /// Per rigid-body arena slot: the body's place in the recorded starts (`NONE` if absent).
     index: Vec<usize>,
+    /// The joint set's topology and the recorded bodies' count that `index`, `specs` and
+    /// `joint_of` were built for: they change only with it (the bodies recorded are the
+    /// backend's jointed bodies, listed again on the same change).
+    listed_for: Option<(u64, usize)>,
     /// Per recorded body: its pose and centre of mass halfway through the span.
     mid: Vec<(Pose, Vector)>,
     mass: Vec<[Real; 36]>,
@@ -44,33 +48,30 @@ pub(crate) struct Scratch {
     mu: Vec<Real>,
     compliance: Vec<Real>,
     wrench: Vec<(Vector, Vector)>,
-    /// The joints' forest, when they form one (see [`forest`]).
+    /// The joints' forest, when they form one (see [`forest`]), and whether they do (with
+    /// at most [`MAX_JOINT_ROWS`] rows each), found when they are listed.
     forest: forest::Forest,
+    is_forest: bool,
 }
 
 impl Scratch {
-    /// Each recorded body's place by its arena slot, and its pose halfway through the span.
-    fn place_bodies(
-        &mut self,
-        starts: &[(RigidBodyHandle, super::BodyStart)],
-        bodies: &RigidBodySet,
-    ) {
+    /// Each recorded body's place by its arena slot.
+    fn index_bodies(&mut self, starts: &[(RigidBodyHandle, super::BodyStart)]) {
         self.index.clear();
-        self.mid.clear();
-        for (i, (b, s)) in starts.iter().enumerate() {
+        for (i, (b, _)) in starts.iter().enumerate() {
             let slot = b.into_raw_parts().0 as usize;
             if self.index.len() <= slot {
                 self.index.resize(slot + 1, NONE);
             }
             self.index[slot] = i;
-            let now = crate::body::pose_and_com(&bodies[*b]);
-            self.mid.push(halfway((s.pose, s.com), now));
         }
     }
 
     /// Every joint with rows: its row count and its bodies' places in the recorded starts
     /// (`None`: not recorded, a fixed or kinematic body), and its index; a joint without rows
-    /// has no reaction.
+    /// has no reaction (written here: the steps in between write none). Listed again only when
+    /// the joints' topology changes (see `Scratch::listed_for`): listing every step was a pass
+    /// over the joints and a comparison of the lists for nothing.
     fn list_joints(&mut self, sets: &mut Sets, starts: &[(RigidBodyHandle, super::BodyStart)]) {
         self.specs.clear();
         self.joint_of.clear();
@@ -105,16 +106,19 @@ impl RapierBackend {
             return;
         }
         let starts = core::mem::take(&mut self.starts);
-        let mut sc = core::mem::take(&mut self.scratch);
-        sc.place_bodies(&starts, &sets.physics.bodies);
+        let mut sc = self.scratch.take().unwrap_or_default();
+        let key = (sets.joints.topology(), starts.len());
+        if sc.listed_for != Some(key) {
+            sc.index_bodies(&starts);
+            sc.list_joints(sets, &starts);
+            sc.is_forest = sc.specs.iter().all(|s| s.rows <= MAX_JOINT_ROWS)
+                && sc.forest.update(&sc.specs, starts.len());
+            sc.listed_for = Some(key);
+        }
         self.body_blocks(sets, &starts, h, &mut sc);
-        sc.list_joints(sets, &starts);
         // (J M^-1 J^T) mu = J M^-1 p: joint by joint where the joints form a forest, else the
         // KKT system with f = p, g = 0 and no compliance.
-        let in_forest = sc.invertible
-            && sc.specs.iter().all(|s| s.rows <= MAX_JOINT_ROWS)
-            && sc.forest.update(&sc.specs, starts.len());
-        if in_forest {
+        if sc.invertible && sc.is_forest {
             self.forest_reactions(sets, h, &mut sc);
         } else {
             self.rows_halfway(sets, h, &mut sc);
@@ -122,7 +126,7 @@ impl RapierBackend {
             self.kkt_reactions(sets, h, &mut sc);
         }
         self.starts = starts;
-        self.scratch = sc;
+        self.scratch = Some(sc);
     }
 
     /// The reactions where the joints form a forest, in one walk from the leaves: each
@@ -331,9 +335,10 @@ impl RapierBackend {
         }
     }
 
-    /// Per recorded body: the inverse mass at the start and the constraint impulse over the
-    /// span `h`, `p_b = m dv - h f` and `l_b = I_1 w_1 - I_0 w_0 - h tau` (angular momenta at
-    /// the end and start poses), into the scratch's `inv_mass` and `impulse`.
+    /// Per recorded body, in one pass: its pose and centre of mass halfway through the span,
+    /// the inverse mass at the start and the constraint impulse over the span `h`,
+    /// `p_b = m dv - h f` and `l_b = I_1 w_1 - I_0 w_0 - h tau` (angular momenta at the end and
+    /// start poses), into the scratch's `mid`, `inv_mass` and `impulse`.
     fn body_blocks(
         &self,
         sets: &Sets,
@@ -343,12 +348,15 @@ impl RapierBackend {
     ) {
         let nb = starts.len();
         let impulse = &mut sc.impulse;
+        sc.mid.clear();
         sc.inv_mass.clear();
         sc.invertible = true;
         impulse.clear();
         impulse.resize(nb, [0.0; 6]);
         for (i, (b, s)) in starts.iter().enumerate() {
             let rb = &sets.physics.bodies[*b];
+            sc.mid
+                .push(halfway((s.pose, s.com), crate::body::pose_and_com(rb)));
             let m = rb.mass();
             let mp = &rb.mass_properties().local_mprops;
             let inv_i = mp.inv_principal_inertia;
