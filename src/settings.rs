@@ -30,14 +30,16 @@ pub struct WorldSettings {
 ///
 /// | level | relative DOFs, rates, gaps, stop/lock/friction status | reactions (`force`, `moment`, `element_force`) | cost per step, 1000-joint mixed scene, dt 1/60 x4 (`joint_bench --cost`; Rapier alone 1.2 ms) |
 /// |---|---|---|---|
-/// | [`Outputs::Full`] | every step | every step | Lagrange 6.2 ms, `rapier-impulse` 2.9 ms |
-/// | [`Outputs::Kinematics`] | every step | not computed (zero, or the last ones computed) | Lagrange the same (its reactions come from its multipliers), `rapier-impulse` 1.9 ms |
+/// | [`Outputs::Full`] | every step | every step | Lagrange 4.3 ms, `rapier-impulse` 1.6 ms |
+/// | [`Outputs::Kinematics`] | every step | not computed (zero, or the last ones computed) | Lagrange the same (its reactions come from its multipliers), `rapier-impulse` 1.4 ms |
 ///
-/// The divergence guard reads the gaps and rates, so they are refreshed at every level. On the
-/// Rapier backends the reactions are recovered by a momentum balance over the step (a sparse
-/// factorisation of the whole world): with `Kinematics` that is skipped unless some joint needs
-/// it, a joint with friction (its normal force is the last reaction) or a drive (its work is
-/// booked from its reaction). The motion is the same at both levels.
+/// (README table of 2026-11-26, fastest of five runs.) The divergence guard reads the gaps and
+/// rates, so they are refreshed at every level. On the Rapier backends the reactions are
+/// recovered by a momentum balance over the step (joint by joint from the leaves where the
+/// joints form a forest, a sparse factorisation over the jointed bodies where they close a
+/// loop): with `Kinematics` that is skipped unless some joint needs it, a joint with friction
+/// (its normal force is the last reaction) or a drive (its work is booked from its reaction).
+/// The motion is the same at both levels.
 #[derive(
     Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize,
 )]
