@@ -6,12 +6,12 @@
 //!
 //! The adaptive control (`StepControl::Adaptive`, step doubling, RATTLE, 1e-2 m asked over the
 //! step alone) marks the 1/30 s steps where it needs 40 or more substeps: the crank's fast
-//! passages through its dead points, twice a turn (up to 26 rad/s against 5.5 between them; 49 of the 150 steps). This example then runs
-//! fixed schedules, `easy` substeps per 1/30 s on the other steps and `hard` on the marked
-//! ones, and prints the slider's largest distance from the reference (the fourth-order
-//! composition at 1/30 s x 128, within about 1e-7 m of the chart study's reference),
-//! its signed distance along the slide at 5 s, and the largest energy error over the energy
-//! scale.
+//! passages through its dead points, twice a turn (up to 26 rad/s against 5.5 between them; 49
+//! of the 150 steps). This example then runs fixed schedules, `easy` substeps per 1/30 s on
+//! the other steps and `hard` on the marked ones, and prints the slider's largest distance from
+//! the reference (the fourth-order composition at 1/30 s x 128, within about 1e-7 m of the
+//! chart study's reference), its signed distance along the slide at 5 s, and the largest
+//! energy error over the energy scale.
 //!
 //! Measured (RATTLE, 2026-11-26):
 //!
