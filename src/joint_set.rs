@@ -351,11 +351,8 @@ impl JointSet {
         list: impl Fn(&Roles) -> &Vec<usize>,
     ) -> impl Iterator<Item = &'a JointEntry> + 'a {
         let listed = (self.roles_for == Some(self.revision)).then(|| list(&self.roles).as_slice());
-        let (some, all) = match listed {
-            Some(l) => (l, None),
-            None => (&[][..], Some(self.iter())),
-        };
-        some.iter()
+        let all = listed.is_none().then(|| self.iter());
+        (listed.unwrap_or_default().iter())
             .filter_map(|&j| self.get(j))
             .chain(all.into_iter().flatten())
     }
