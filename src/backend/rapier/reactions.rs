@@ -185,7 +185,13 @@ impl RapierBackend {
                     // The step's mean force and moment about node J, in frame I halfway
                     // through the step, where the rows took them (a free direction's
                     // component is zero there).
-                    let axes_i = Matrix::from_quat(pose1.0.rotation * e.ansys[0].rotation);
+                    // Frame I's axes are the row frame's where the two agree (every kind but
+                    // those whose rows turn frame I): the same product, already converted.
+                    let axes_i = if e.low[0].rotation == e.ansys[0].rotation {
+                        f.r1
+                    } else {
+                        Matrix::from_quat(pose1.0.rotation * e.ansys[0].rotation)
+                    };
                     e.set_reaction_in(&axes_i, force / h, moment / h);
                 } else {
                     let mut rows = ArrayVec::<RowEval, MAX_JOINT_ROWS>::new();
