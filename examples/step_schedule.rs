@@ -1,4 +1,4 @@
-//! `cargo run --release --example step_schedule`
+//! `cargo run --release --example step_schedule -- [--integrator second-order|first-order]`
 //!
 //! Why the adaptive step control cannot beat a uniform step on the spatial slider-crank
 //! (`benchmarks::slider_crank_idle_removed`, the chart study's scene, 5 s): its error is a
@@ -29,15 +29,36 @@
 //! stretches ahead (+5.01e-3 m); a uniform step keeps both, and they cancel (-1.57e-3 m).
 //! Refining only where the local error is largest, as any error-per-step control does, takes
 //! one side of the cancellation away: 8 substeps with 32 in the passages is three times worse
-//! than 8 everywhere, although its energy error is smaller. Symplectic Euler (`-- e`) is worse
+//! than 8 everywhere, although its energy error is smaller. Symplectic Euler
+//! (`--integrator first-order`) is worse
 //! still with a changing step (8 with 32 in the passages: 5.2e-2 m against 1.8e-3 uniform; its
 //! velocities live at half steps, so a change of step is itself a first-order error).
 //!
 //! Each schedule runs `n` steps of one substep for a 1/30 s step of `n` substeps: within 1 % of
 //! one step of `n` substeps (uniform 8: 1.79e-3 m against 1.78e-3).
 
+#[path = "common/mod.rs"]
+mod common;
+
+use std::process::ExitCode;
+
 use rapier3d_mpc184::prelude::*;
 use rapier3d_mpc184::studies::benchmarks::{self, Benchmark};
+
+/// Fixed step schedules on the spatial slider-crank: refining only the steps the adaptive
+/// control refines
+#[derive(clap::Parser)]
+struct Cli {
+    /// The scheme of the fixed schedules
+    #[arg(long, value_enum, default_value = "second-order")]
+    integrator: Scheme,
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum Scheme {
+    SecondOrder,
+    FirstOrder,
+}
 
 const DT: Real = 1.0 / 30.0;
 const SECS: Real = 5.0;
@@ -52,11 +73,22 @@ fn scene(integrator: Integrator, dt: Real, substeps: usize) -> Result<Benchmark,
     })
 }
 
-fn main() -> Result<(), Error> {
-    let integrator = match std::env::args().nth(1).as_deref() {
-        Some("e") => Integrator::SymplecticEuler,
-        _ => Integrator::Rattle,
+fn main() -> ExitCode {
+    let cli: Cli = common::parse("step_schedule", &[]);
+    let integrator = match cli.integrator {
+        Scheme::SecondOrder => Integrator::Rattle,
+        Scheme::FirstOrder => Integrator::SymplecticEuler,
     };
+    match run(integrator) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("step_schedule: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn run(integrator: Integrator) -> Result<(), Error> {
     let steps = (SECS / DT).round() as usize;
     let mut reference = scene(Integrator::Composition4, DT, 128)?;
     let mut probe = Vec::with_capacity(steps);
@@ -83,7 +115,8 @@ fn main() -> Result<(), Error> {
     }
     let marked = hard.iter().filter(|h| **h).count();
     println!(
-        "{integrator:?}: the adaptive control refines {marked} of the {steps} steps of 1/30 s"
+        "{}: the adaptive control refines {marked} of the {steps} steps of 1/30 s",
+        integrator.name()
     );
     println!("| easy | hard | largest error (m) | error along X at 5 s (m) | energy / scale |");
     println!("|---|---|---|---|---|");
