@@ -37,6 +37,20 @@ fn run(bin: PathBuf, args: &[&str], dir: &Path) {
     );
 }
 
+/// Runs an example that prints its results with `args`, asserting exit code 0; its stdout.
+fn stdout_of(name: &str, args: &[&str]) -> String {
+    let out = Command::new(common::example(name))
+        .args(args)
+        .output()
+        .expect("example runs");
+    assert!(
+        out.status.success(),
+        "{name} {args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
 /// Reads a CSV, checks its header, returns the rows as numbers (at least two).
 fn csv(path: &Path, header: &str) -> Vec<Vec<f64>> {
     let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
@@ -225,16 +239,7 @@ fn ecs_demo_despawns_a_joint_and_frees_the_bead() {
 
 #[test]
 fn bevy_pendulum_swings_in_a_headless_app() {
-    let out = Command::new(common::example("bevy_pendulum"))
-        .args(["--secs", "0.5"])
-        .output()
-        .expect("example runs");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let text = String::from_utf8_lossy(&out.stdout);
+    let text = stdout_of("bevy_pendulum", &["--secs", "0.5"]);
     // Rows at 0.25 and 0.5 s: t, Transform x y z, theta, dE, |F|, exact.
     let rows: Vec<Vec<f64>> = text
         .lines()
@@ -259,15 +264,7 @@ fn bevy_pendulum_swings_in_a_headless_app() {
 /// only the passages coarse, -1.07e-2 m).
 #[test]
 fn refining_only_the_dead_point_passages_breaks_the_cancellation() {
-    let out = Command::new(common::example("step_schedule"))
-        .output()
-        .expect("example runs");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let text = String::from_utf8_lossy(&out.stdout);
+    let text = stdout_of("step_schedule", &[]);
     // Table rows: | easy | hard | largest error | error along X at 5 s | energy / scale |
     let rows: Vec<Vec<f64>> = text
         .lines()
