@@ -19,35 +19,28 @@ fn temp_out(name: &str) -> PathBuf {
     dir
 }
 
-/// Runs a demo binary with `args` and `--out dir`, asserting exit code 0.
-fn run(bin: PathBuf, args: &[&str], dir: &Path) {
-    let out = Command::new(&bin)
-        .args(args)
-        .arg("--out")
-        .arg(dir)
-        .output()
-        .expect("demo binary runs");
+/// Runs `cmd`, asserting exit code 0 (the message gives the command, its code and both
+/// streams); its output.
+fn succeed(cmd: &mut Command) -> std::process::Output {
+    let out = cmd.output().expect("binary runs");
     assert!(
         out.status.success(),
-        "{} {args:?} exited with {:?}\nstdout:\n{}\nstderr:\n{}",
-        bin.display(),
+        "{cmd:?} exited with {:?}\nstdout:\n{}\nstderr:\n{}",
         out.status.code(),
         String::from_utf8_lossy(&out.stdout),
         String::from_utf8_lossy(&out.stderr)
     );
+    out
+}
+
+/// Runs a demo binary with `args` and `--out dir`, asserting exit code 0.
+fn run(bin: PathBuf, args: &[&str], dir: &Path) {
+    succeed(Command::new(bin).args(args).arg("--out").arg(dir));
 }
 
 /// Runs an example that prints its results with `args`, asserting exit code 0; its stdout.
 fn stdout_of(name: &str, args: &[&str]) -> String {
-    let out = Command::new(common::example(name))
-        .args(args)
-        .output()
-        .expect("example runs");
-    assert!(
-        out.status.success(),
-        "{name} {args:?}: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let out = succeed(Command::new(common::example(name)).args(args));
     String::from_utf8_lossy(&out.stdout).into_owned()
 }
 
