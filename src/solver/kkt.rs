@@ -1095,8 +1095,7 @@ impl KktSolver {
     fn forward_step<const N: usize>(&self, pv: &Pivot, bodies: &mut [Real], joints: &mut [Real]) {
         let fac = Packed::<N>::new(&self.diag[pv.diag_off..], &self.perms[pv.scale_off..]);
         let slot = seg(pv.rhs, N, bodies, joints);
-        let u = fac.scaled(&fac.lower_solve(slot));
-        slot.copy_from_slice(&u);
+        let u = fac.scaled_into(fac.lower_solve(slot), slot);
         for blk in &self.blocks[pv.blk_start..pv.blk_end] {
             let y = &self.offd[blk.off..blk.off + blk.rows * N];
             let r = seg(blk.rhs, blk.rows, bodies, joints);
@@ -1130,24 +1129,25 @@ struct Factor<'a, const N: usize> {
     l: &'a [Real],
     /// `D⁺`: `1 / d_k` for the kept pivots, `0` for the dropped ones.
     dinv: &'a [Real],
-    /// `perm[i]` is the original row of position `i`.
-    perm: [usize; N],
+    /// `perm[i]` is the original row of position `i` (see [`Self::row`]).
+    perm: &'a [u8],
 }
 
 impl<'a, const N: usize> Factor<'a, N> {
     /// The factors stored at the start of `l`, `dinv` and `perm` by [`PivotWork::factor`].
     #[inline(always)]
-    fn new(l: &'a [Real], dinv: &'a [Real], perm: &[u8]) -> Self {
-        let mut p = [0; N];
-        for (d, &s) in p.iter_mut().zip(perm) {
-            // Stored values are `< N`; the clamp only keeps indexing trivially in range.
-            *d = (s as usize).min(N - 1);
-        }
+    fn new(l: &'a [Real], dinv: &'a [Real], perm: &'a [u8]) -> Self {
         Self {
             l: &l[..tri(N)],
             dinv: &dinv[..N],
-            perm: p,
+            perm: &perm[..N],
         }
+    }
+
+    /// The original row of position `i` (see [`permuted_row`]).
+    #[inline(always)]
+    fn row(&self, i: usize) -> usize {
+        permuted_row::<N>(self.perm, i)
     }
 
     /// For one off-diagonal block `Wᵀ` (`N × M`, in `wy`) towards a later node with diagonal
@@ -1165,7 +1165,7 @@ impl<'a, const N: usize> Factor<'a, N> {
         let s = &mut s[..M];
         let mut yt = [[0.0; M]; N];
         for i in 0..N {
-            yt[i] = y[self.perm[i]];
+            yt[i] = y[self.row(i)];
         }
         for k in 0..N {
             for i in 0..N {
@@ -1203,7 +1203,8 @@ impl<'a, const N: usize> Factor<'a, N> {
     /// [`Self::block_update`] for a block of `m <= MAX_DIM` columns (any size).
     fn block_update_dyn(&self, m: usize, wy: &mut [Real], d: &mut [Real], s: &mut [Real]) {
         let mut yt = [[0.0; MAX_DIM]; N];
-        for (row, &p) in yt.iter_mut().zip(&self.perm) {
+        for (i, row) in yt.iter_mut().enumerate() {
+            let p = self.row(i);
             row[..m].copy_from_slice(&wy[p * m..p * m + m]);
         }
         for k in 0..N {
@@ -1500,25 +1501,26 @@ fn invert_and_pack<const N: usize>(a: &mut [Real], dinv: &[Real]) {
 struct Packed<'a, const N: usize> {
     x: &'a [Real],
     dinv: &'a [Real],
-    /// `perm[i]` is the original row of position `i`.
-    perm: [usize; N],
+    /// `perm[i]` is the original row of position `i` (see [`Self::row`]).
+    perm: &'a [u8],
 }
 
 impl<'a, const N: usize> Packed<'a, N> {
     /// The factors stored at the start of `a` by [`invert_and_pack`] and of `perm`.
     #[inline(always)]
-    fn new(a: &'a [Real], perm: &[u8]) -> Self {
+    fn new(a: &'a [Real], perm: &'a [u8]) -> Self {
         let o = N * (N - 1) / 2;
-        let mut p = [0; N];
-        for (d, &s) in p.iter_mut().zip(perm) {
-            // Stored values are `< N`; the clamp only keeps indexing trivially in range.
-            *d = (s as usize).min(N - 1);
-        }
         Self {
             x: &a[..o],
             dinv: &a[o..o + N],
-            perm: p,
+            perm: &perm[..N],
         }
+    }
+
+    /// The original row of position `i` (see [`permuted_row`]).
+    #[inline(always)]
+    fn row(&self, i: usize) -> usize {
+        permuted_row::<N>(self.perm, i)
     }
 
     /// `X Π v = L⁻¹ Π v` (`v` in original order, at least `N` long). Unrolled; the rows are
@@ -1529,7 +1531,7 @@ impl<'a, const N: usize> Packed<'a, N> {
         reason = "index loops with compile-time bounds, fully unrolled"
     )]
     fn lower_solve(&self, v: &[Real]) -> [Real; N] {
-        let vp: [Real; N] = std::array::from_fn(|i| v[self.perm[i]]);
+        let vp: [Real; N] = std::array::from_fn(|i| v[self.row(i)]);
         let mut y = vp;
         for i in 0..N {
             for k in 0..N {
@@ -1556,20 +1558,40 @@ impl<'a, const N: usize> Packed<'a, N> {
                 }
             }
         }
-        for (&p, &xi) in self.perm.iter().zip(&x) {
-            out[p] = xi;
+        for (i, &xi) in x.iter().enumerate() {
+            out[self.row(i)] = xi;
         }
     }
 
-    /// `D⁺ y` (`y` in permuted order, at least `N` long).
+    /// `u = D⁺ y` (`y` in permuted order), written into `out` (at least `N` long) and
+    /// returned. Each entry is stored from the product itself: the `[Real; N]` copied into
+    /// `out` afterwards was read back with wider loads than its stores (with `-C
+    /// target-cpu=native`), which stall until the stores reach the cache.
     #[inline(always)]
-    fn scaled(&self, y: &[Real]) -> [Real; N] {
-        let mut out = [0.0; N];
-        for ((o, &yi), &di) in out.iter_mut().zip(y).zip(self.dinv) {
-            *o = yi * di;
+    #[allow(
+        clippy::needless_range_loop,
+        reason = "index loops with compile-time bounds, fully unrolled"
+    )]
+    fn scaled_into(&self, y: [Real; N], out: &mut [Real]) -> [Real; N] {
+        let out = &mut out[..N];
+        let mut u = [0.0; N];
+        for i in 0..N {
+            u[i] = y[i] * self.dinv[i];
+            out[i] = u[i];
         }
-        out
+        u
     }
+}
+
+/// Entry `i` of a pivot block's stored permutation `perm` (`N` entries, each the original
+/// position of position `i`, `< N`), clamped to `N - 1` so that indexing with it is trivially in
+/// range. Read from the stored bytes at each use: copying them into a `[usize; N]` first was
+/// compiled, with `-C target-cpu=native` on this machine's AVX-512 core, into a masked vector
+/// store that the scalar reads right after could not take their values from (the store had to
+/// reach the cache first): 17 % of `KktSolver::solve`'s samples stalled on those reads.
+#[inline(always)]
+fn permuted_row<const N: usize>(perm: &[u8], i: usize) -> usize {
+    usize::from(perm[i]).min(N - 1)
 }
 
 /// `n (n + 1) / 2`: the size of a packed lower triangle; its row `i` starts at `tri(i)`. The
