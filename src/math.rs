@@ -36,52 +36,9 @@ pub fn turn_between(from: Rotation, to: Rotation) -> Vector {
     }
 }
 
-/// The unit quaternion of the rotation vector `v` (axis times angle, rad): what
-/// `Rotation::from_scaled_axis` gives, without its square root, division and `sin_cos` below
-/// 1e-2 rad. There `(sin(a / 2) / a, cos(a / 2))` come from their Taylor series in `a^2` to the
-/// fourth power of `a`; the first term left out is below `a^6 / 46080`, 2e-17 at 1e-2 rad,
-/// under the round-off of either precision. The position projection turns every body by such
-/// corrections (1e-6 rad and less) at each chord step, where `sin_cos` alone was 2.5 % of the
-/// Lagrange step.
-#[inline]
-pub fn exp_turn(v: Vector) -> Rotation {
-    let t = v.length_squared();
-    if t >= 1e-4 {
-        return Rotation::from_scaled_axis(v);
-    }
-    let s = 0.5 + t * (-1.0 / 48.0 + t * (1.0 / 3840.0));
-    let c = 1.0 + t * (-0.125 + t * (1.0 / 384.0));
-    Rotation::from_xyzw(v.x * s, v.y * s, v.z * s, c)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// `exp_turn` is `from_scaled_axis` to round-off on both sides of its switch at 1e-2 rad:
-    /// the series' first dropped term is below `a^6 / 46080` (2e-17 at 1e-2 rad), so each
-    /// component may differ by the two roundings of the two formulas, at most 2 units in the
-    /// last place of a unit quaternion's components (`2 eps`).
-    #[test]
-    fn exp_turn_is_from_scaled_axis_to_round_off() {
-        let axes = [
-            Vector::new(1.0, 2.0, -2.0) / 3.0,
-            Vector::new(0.0, 0.0, 1.0),
-            Vector::new(-0.48, 0.6, 0.64),
-        ];
-        let mut worst: Real = 0.0;
-        for axis in axes {
-            for angle in [1e-12, 1e-9, 1e-6, 1e-4, 3e-3, 9.99e-3, 1.01e-2, 0.5] {
-                let (a, b) = (
-                    exp_turn(axis * angle),
-                    Rotation::from_scaled_axis(axis * angle),
-                );
-                let d = [a.x - b.x, a.y - b.y, a.z - b.z, a.w - b.w];
-                worst = d.iter().fold(worst, |m, x| m.max(x.abs()));
-            }
-        }
-        assert!(worst <= 2.0 * Real::EPSILON, "largest difference {worst:e}");
-    }
 
     /// A turn of 1e-9 rad comes back to round-off (it was zero through `to_scaled_axis`), and
     /// a turn of 3 rad stored with a negative scalar part comes back as 3 rad about the same
