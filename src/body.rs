@@ -51,6 +51,13 @@ pub(crate) fn rotational_energy(rb: &RigidBody, w: Vector) -> Real {
     0.5 * (moments * wl).dot(wl)
 }
 
+/// A body's largest radius of gyration about its centre of mass, `sqrt(I_max / m)` (m); `None`
+/// for a body without mass.
+pub(crate) fn gyration_radius(rb: &RigidBody) -> Option<Real> {
+    let ip = rb.mass_properties().local_mprops.principal_inertia();
+    (rb.mass() > 0.0).then(|| (ip.max_element() / rb.mass()).sqrt())
+}
+
 /// A body's pose and centre of mass, the pair [`crate::rows::FramePair::at`] takes.
 pub(crate) fn pose_and_com(rb: &RigidBody) -> (Pose, Vector) {
     (*rb.position(), rb.center_of_mass())

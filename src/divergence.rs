@@ -424,10 +424,8 @@ pub(crate) fn model_size(physics: &PhysicsWorld, joints: &JointSet) -> Real {
         for (b, frame) in [(e.body1, e.ansys[0]), (e.body2, e.ansys[1])] {
             let rb = &physics.bodies[b];
             add(*rb.position() * frame.translation);
-            if rb.is_dynamic() && rb.mass() > 0.0 {
+            if let Some(r) = crate::body::gyration_radius(rb).filter(|_| rb.is_dynamic()) {
                 let c = rb.center_of_mass();
-                let ip = rb.mass_properties().local_mprops.principal_inertia();
-                let r = (ip.max_element() / rb.mass()).sqrt();
                 add(c - Vector::splat(r));
                 add(c + Vector::splat(r));
             }

@@ -744,9 +744,8 @@ impl Mpc184World {
                     .get(h.into_raw_parts().0 as usize)
                     .copied()
                     .unwrap_or(0.0);
-                if rb.mass() > 0.0 {
-                    let ip = rb.mass_properties().local_mprops.principal_inertia();
-                    lever = lever.max((ip.max_element() / rb.mass()).sqrt());
+                if let Some(r) = crate::body::gyration_radius(rb) {
+                    lever = lever.max(r);
                 }
                 for co in rb
                     .colliders()
