@@ -734,7 +734,6 @@ impl Mpc184World {
                 }
             }
         }
-        let size = self.model_size();
         bodies
             .iter()
             .filter(|(_, rb)| rb.is_dynamic())
@@ -758,7 +757,7 @@ impl Mpc184World {
                 if lever.is_finite() && lever > 0.0 {
                     lever
                 } else {
-                    size
+                    self.model_size()
                 }
             })
             .collect()
