@@ -15,7 +15,10 @@
 //!    the velocity projection `J v = 0`; in a step's last substep it is refined on the same
 //!    factorisation until every hard row holds to 1e-10 m/s (the factorisation's relative
 //!    regularisation otherwise leaves `J v = c lambda`, an O(h) velocity error on bodies of
-//!    small rotary inertia, see `Island::project_velocities`).
+//!    small rotary inertia, see `Island::project_velocities`). A plain island whose kicks are
+//!    linear in the velocities (first order, isotropic bodies) leaves the projection to the
+//!    next substep's velocity solve, which projects the same way, except in a step's last two
+//!    substeps (see `Island::plain_substeps`).
 //!
 //! With [`Integrator::Rattle`](crate::settings::Integrator::Rattle) the same four stages form
 //! RATTLE (second order): stage 1 kicks by `h/2` only (forces and the implicit-midpoint
