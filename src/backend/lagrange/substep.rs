@@ -183,9 +183,10 @@ impl Island {
                 // but not in the step's last two substeps: the reactions are the last
                 // substep's impulses, and its velocity solve would carry the projection
                 // impulse of the substep before (the rigid link's bottom tension came out
-                // 33 % high, `tests/rigid_link.rs`). Measured (callgrind, 100 steps at 1/60 x
-                // 4): 3.3 to 4.5 % fewer instructions on the pendulum, the mixed scene and
-                // the 100-link chain; the 1:1000 chain (added inertia) is unchanged.
+                // 33 % high, `tests/rigid_link.rs`). Measured (callgrind, 1/60 x 4, 100 steps,
+                // 50 on the chains): 3.3 to 4.5 % fewer instructions on the pendulum, the
+                // mixed scene and the 100-link chain; the 1:1000 chain (added inertia) is
+                // unchanged.
                 let last = k + 1 == n && stage + 1 == stages.len();
                 if k + 2 >= n || !self.merges_velocity_projection() {
                     self.end_momenta(hs);
