@@ -166,7 +166,10 @@ impl Island {
             let side = |slot: Option<usize>, b: RigidBodyHandle| match slot {
                 Some(i) => Side::Dynamic(st[i].mass, st[i].inertia_inv),
                 // Velocity of a non-dynamic side (kinematic bodies; zero for fixed ones).
-                None => Side::Moving(bodies[b].linvel(), bodies[b].angvel()),
+                None => {
+                    let rb = &bodies[b];
+                    Side::Moving(rb.linvel(), rb.angvel())
+                }
             };
             let sides = [side(i1, e.body1), side(i2, e.body2)];
             let r0 = kkt.row_offset(k);
