@@ -148,6 +148,17 @@ const GYRO_ITERATIONS: usize = 4;
 /// Largest number of chord iterations of the position projection per substep.
 const MAX_PROJECTION_ITERATIONS: usize = 40;
 
+/// Halvings of a Gauss-Newton step of the position projection that raised the residual
+/// before it is undone and the regularisation raised instead. Without them, the chart study's
+/// 100-link 1:1000 bead chain at one substep of 1/60 s (first order) left gaps of 1.6e-5 m: a
+/// full step turned the light beads next to the end mass by up to 0.15 rad to close 7e-4 m,
+/// and raising the regularisation to 1e4 times until a step held left a contraction of 0.93
+/// per iteration (see [`Island::project_positions`]). Only far from the tolerance (1e3 times
+/// it): the spatial slider-crank deck's rod spin of 1.1e-8 kg m^2 (`cli/tests/idle_modes_deck.rs`,
+/// RATTLE x64) has Gauss-Newton steps raise residuals of 1e-9 m by round-off, and halving them
+/// there moved its slider 1e-6 m off the converged run (4.3e-8 m without).
+const BACKTRACKS: usize = 6;
+
 /// The projection tolerance of this build (see [`PROJECTION_TOLERANCE`]).
 fn projection_tolerance() -> Real {
     PROJECTION_TOLERANCE.max(10.0 * Real::EPSILON)
