@@ -309,6 +309,26 @@ struct IslandReport {
     warnings: Vec<(Warning, String)>,
 }
 
+/// A joint whose warm start extrapolates its force in frame 2's axes (see
+/// `Island::extrapolate_multipliers`): its three linear rows and frame 2's axes relative to
+/// frame 1's at the last two substeps' ends.
+#[derive(Clone, Copy, Debug)]
+#[cfg_attr(
+    feature = "serde-snapshot",
+    derive(serde::Serialize, serde::Deserialize)
+)]
+struct WarmAxes {
+    /// The island rows of the linear rows along frame 1's axes 1, 2 and 3.
+    rows: [usize; 3],
+    /// Each side's island body, or the body outside the island.
+    sides: [(Option<usize>, RigidBodyHandle); 2],
+    /// `L1^-1` and `L2`: the row frames' rotations in their bodies.
+    frames: [Rotation; 2],
+    /// `(R1 L1)^-1 (R2 L2)`, frame 2's axes in frame 1's: before the last substep, and after
+    /// it.
+    turn: [Matrix; 2],
+}
+
 /// One island: bodies connected by joints (through dynamic bodies), with its own KKT
 /// structure, factorisation and buffers. Islands do not interact (contacts aside, which
 /// Rapier solves), so they step one after the other, or in parallel. A snapshot holds all of
@@ -381,6 +401,9 @@ pub(crate) struct Island {
     /// hold a smooth run of them), the polynomial the warm start extrapolates.
     mu_history: [Vec<Real>; MU_HISTORY],
     mu_depth: usize,
+    /// Per KKT block, the axes the warm start extrapolates the joint's force in (see
+    /// `Island::extrapolate_multipliers`): `None` where the rows' own axes are kept.
+    warm_axes: Vec<Option<WarmAxes>>,
     rhs_b: Vec<[Real; 6]>,
     rhs_j: Vec<Real>,
     /// Applied impulse per row accumulated over the current substep (N s).
