@@ -9,11 +9,17 @@
 //! (`LagrangeDiagnostics::projection_iterations`), averaged from the fifth step on (the
 //! extrapolation's history fills over the first substeps).
 //!
-//! Measured: 0.97 on the pendulum and 1.52 on the chain; in fixed axes 2.06 and 3.06 (the
+//! Measured: 1.20 on the pendulum and 2.25 on the chain; in fixed axes 2.06 and 3.06 (the
 //! warm start left 5e-6 to 1.3e-5 m on the pendulum, one chord step took it to 1e-7 and a
-//! second below the 1e-10 m tolerance). Asserted: at most 1.3 and 2.0, each about halfway
-//! between the two (a regression to fixed axes fails both). The gaps stay within the
-//! tolerance (1e-9 m with room for the gap's evaluation from the written-back poses).
+//! second below the 1e-10 m tolerance). Asserted: at most 1.6 and 2.65, about halfway between
+//! the two (a regression to fixed axes fails both).
+//!
+//! Such an island converges its projection to a tenth of the tolerance
+//! (`WARM_AXES_TOLERANCE`: at the bare tolerance its single chord step lands just below it,
+//! and the trajectory moved by 5e-9 m on the 1:1000 chain): the largest gap over the run is
+//! at most 2e-11 m (measured 8.8e-12 and 9.6e-12 m; 1e-11 m with room for the gap's
+//! evaluation from the written-back poses), where the frame-1 warm start's islands keep the
+//! tolerance of 1e-10 m.
 #![cfg(feature = "f64")]
 
 use rapier3d_mpc184::prelude::*;
@@ -48,17 +54,17 @@ fn chord_steps(links: usize, length: Real, mass: Real, theta0_deg: f64) -> (f64,
 }
 
 #[test]
-fn the_pendulum_projects_in_one_chord_step() {
+fn the_pendulum_projects_in_fewer_chord_steps() {
     let (steps, gap) = chord_steps(1, 1.0, 1.0, 90.0);
     println!("pendulum: {steps:.2} chord steps per projection, gap {gap:.2e} m");
-    assert!(steps <= 1.3, "{steps:.2} chord steps");
-    assert!(gap <= 1e-9, "gap {gap:.2e} m");
+    assert!(steps <= 1.6, "{steps:.2} chord steps");
+    assert!(gap <= 2e-11, "gap {gap:.2e} m");
 }
 
 #[test]
-fn the_chain_projects_in_half_the_chord_steps() {
+fn the_chain_projects_in_fewer_chord_steps() {
     let (steps, gap) = chord_steps(100, 0.1, 0.01, 20.0);
     println!("chain 100 x 1:1: {steps:.2} chord steps per projection, gap {gap:.2e} m");
-    assert!(steps <= 2.0, "{steps:.2} chord steps");
-    assert!(gap <= 1e-9, "gap {gap:.2e} m");
+    assert!(steps <= 2.65, "{steps:.2} chord steps");
+    assert!(gap <= 2e-11, "gap {gap:.2e} m");
 }

@@ -159,6 +159,21 @@ const MAX_PROJECTION_ITERATIONS: usize = 40;
 /// there moved its slider 1e-6 m off the converged run (4.3e-8 m without).
 const BACKTRACKS: usize = 6;
 
+/// The fraction of the projection tolerance an island converges its position projection to
+/// while its warm start extrapolates in frame 2's axes (`Island::extrapolate_multipliers`).
+/// That warm start leaves so little that one chord step lands just below the tolerance, where
+/// the frame-1 warm start's chord steps had overshot it by orders of magnitude (the 100-link
+/// chain's third chord step: 3e-13 m). At the bare tolerance, the chart study's 1:1000 chain
+/// moved by 4.9e-9 m over 2 s (RATTLE at 1/30720 s; fourth order at 1/7680 s against it:
+/// 6.6e-9 m, where the two had agreed to 4.0e-10 m), and the adaptive fourth-order run at
+/// 1e-6 m with a 1 s horizon chased that noise down to substeps of 8e-6 s (290 239 substeps
+/// against 11 583, 64.8 against 2.8 CPU s per simulated s). At a tenth: 4.7e-10 m, 5.0e-10 m
+/// against the old reference, and the adaptive run as before (11 583 substeps, 2.7 s/s); the
+/// chord steps per projection over 2 s at 1/60 s x 4 are 1.20 on the pendulum and 2.25 on the
+/// 100-link chain (2.06 and 3.06 with the frame-1 warm start; 0.97 and 1.52 at the bare
+/// tolerance).
+const WARM_AXES_TOLERANCE: Real = 0.1;
+
 /// The projection tolerance of this build (see [`PROJECTION_TOLERANCE`]).
 fn projection_tolerance() -> Real {
     PROJECTION_TOLERANCE.max(10.0 * Real::EPSILON)
@@ -404,6 +419,9 @@ pub(crate) struct Island {
     /// Per KKT block, the axes the warm start extrapolates the joint's force in (see
     /// `Island::extrapolate_multipliers`): `None` where the rows' own axes are kept.
     warm_axes: Vec<Option<WarmAxes>>,
+    /// Some joint of `warm_axes` is listed: the projection converges to
+    /// [`WARM_AXES_TOLERANCE`] times its tolerance.
+    warm_axes_active: bool,
     rhs_b: Vec<[Real; 6]>,
     rhs_j: Vec<Real>,
     /// Applied impulse per row accumulated over the current substep (N s).

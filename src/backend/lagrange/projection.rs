@@ -14,7 +14,8 @@ use crate::solver::kkt::JAC_ROW_STRIDE;
 use super::assemble::Eval;
 use super::{
     BACKTRACKS, Island, MAX_PROJECTION_ITERATIONS, MU_HISTORY, REGULARISATION_LOOPS, SMOOTH,
-    WARM_START_LIMIT, WarmAxes, Warning, angular_block, displace, kkt_err, projection_tolerance,
+    WARM_AXES_TOLERANCE, WARM_START_LIMIT, WarmAxes, Warning, angular_block, displace, kkt_err,
+    projection_tolerance,
 };
 
 impl Island {
@@ -27,12 +28,17 @@ impl Island {
         h: Real,
         time: Real,
     ) -> Result<(), Error> {
-        let tol = projection_tolerance();
+        let nominal = projection_tolerance();
+        let tol = if self.warm_axes_active {
+            WARM_AXES_TOLERANCE * nominal
+        } else {
+            nominal
+        };
         // Where the residual is this far above the tolerance, a slow or failed step is the
         // constraints' curvature over a long step, which a refactorisation or a shorter step
         // mends; near the tolerance it is round-off on ill-conditioned rows (a spin of tiny
         // inertia), where they only move the result (see `BACKTRACKS`).
-        let far = 1e3 * tol;
+        let far = 1e3 * nominal;
         let mut residual = 0.0;
         let mut iterations = 0;
         for s in self.shift.iter_mut() {
@@ -130,10 +136,11 @@ impl Island {
     }
 
     /// Records frame 2's axes relative to frame 1's at the state now (the substep's end) for
-    /// the joints whose warm start extrapolates in them; lists those joints first if the
-    /// island's rows changed: on a tree island without penalty rows (the others do not
-    /// extrapolate at every substep, see [`Island::extrapolate_multipliers`]), the joints with
-    /// three linear rows (along frame 1's axes) and a rotation constrained by some angular row.
+    /// the joints whose warm start extrapolates in them, listed at the island's first
+    /// projection: every joint of a tree island without penalty rows (the others do not
+    /// extrapolate at every substep, see [`Island::extrapolate_multipliers`]) where each joint
+    /// has three linear rows (along frame 1's axes) and a rotation constrained by some angular
+    /// row.
     fn record_warm_axes(&mut self, joints: &JointSet, bodies: &RigidBodySet) {
         // Not where bodies take added inertia, from the first such substep on (the history,
         // in mixed axes then, starts again): there it saved no chord step (1:1000 chain of 100
@@ -141,8 +148,9 @@ impl Island {
         // cost the bookkeeping (+1.5 % and +1.9 % instructions per step). The island's rows
         // change only with a rebuild (a new island): the list is made once.
         let stiff = self.report.stiffened_bodies > 0 || self.would_stiffen;
-        if stiff && self.warm_axes.iter().any(Option::is_some) {
+        if stiff && self.warm_axes_active {
             self.warm_axes = vec![None; self.blocks.len()];
+            self.warm_axes_active = false;
             self.mu_depth = 0;
             return;
         }
@@ -176,6 +184,15 @@ impl Island {
                     })
                 })
                 .collect();
+            // Only where every joint takes it: the tighter tolerance costs every joint of the
+            // island chord steps, and a joint left in frame 1's axes keeps the warm start's
+            // error (the mixed scene, whose arms also hold spherical, cylindrical and
+            // translational joints: 1.71 -> 2.28 chord steps per substep, +10 % instructions).
+            self.warm_axes_active =
+                !self.warm_axes.is_empty() && self.warm_axes.iter().all(Option::is_some);
+            if !self.warm_axes_active {
+                self.warm_axes.iter_mut().for_each(|w| *w = None);
+            }
         }
         let st = &self.st;
         let rot = |(slot, b): (Option<usize>, RigidBodyHandle)| match slot {
@@ -407,21 +424,22 @@ impl Island {
     /// substep of a step extrapolates); without it the chart study's slider-crank at 1/30 s
     /// x 2 (RATTLE) diverged at t = 2.8 s where it ran to the end.
     ///
-    /// A joint with three linear rows and some angular row (revolute, universal, weld; not a
-    /// spherical joint, whose frame 2 spins with the child) on a tree island without penalty
-    /// rows has its linear rows' multipliers extrapolated in frame 2's axes
-    /// ([`Island::turn_warm_axes`]): its force turns with the child body (a pendulum's rod
-    /// force, a chain link's tension), and extrapolated in frame 1's the turning vector's error
-    /// lands on the stiff directions (the pendulum's point-mass bob). Measured (callgrind,
-    /// 1/60 s x 4): chord steps per substep 2.03 -> 0.97 on the pendulum, 2.61 -> 1.49 and
-    /// 2.54 -> 1.00 on the 10- and 100-link chains at 1:1, instructions per step -14.4 %,
-    /// -13.9 % and -20.0 %; the mixed scene's (50 arms) chord steps unchanged, +1.1 % (the
-    /// turns' bookkeeping). Not where bodies take added inertia ([`Island::record_warm_axes`]).
-    /// Tried first without that exclusion, its landing was backed out twice for gaps of up to
-    /// 1.7e-5 m in the chart study's 1:1000 chain at one coarse substep; the projection left
-    /// those gaps with and without this warm start (the runs are chaotic: 2.2e-9 to 3.5e-4 m
-    /// with the start angle moved by 0.01 deg), and no longer does
-    /// (`tests/lagrange_chain_coarse.rs`).
+    /// On a tree island without penalty rows whose joints all have three linear rows and some
+    /// angular row (revolute, universal, weld; not a spherical joint, whose frame 2 spins with
+    /// the child), the linear rows' multipliers are extrapolated in frame 2's axes
+    /// ([`Island::turn_warm_axes`]): a joint's force turns with the child body (a pendulum's
+    /// rod force, a chain link's tension), and extrapolated in frame 1's the turning vector's
+    /// error lands on the stiff directions (the pendulum's point-mass bob). The warm start then
+    /// leaves 1.1e-9 m instead of 1e-5 on the pendulum and 8.6e-8 instead of 4e-5 on the
+    /// 100-link chain, and the island converges to a tenth of the tolerance
+    /// ([`WARM_AXES_TOLERANCE`](super::WARM_AXES_TOLERANCE)). Measured (callgrind, 1/60 s x
+    /// 4): chord steps per substep 2.03 -> 1.19 on the pendulum, 2.61 -> 2.08 and 2.54 -> 2.00
+    /// on the 10- and 100-link chains at 1:1, instructions per step -10.9 %, -5.8 % and
+    /// -5.9 %. Not where bodies take added inertia ([`Island::record_warm_axes`]). Tried first
+    /// without that exclusion, its landing was backed out twice for gaps of up to 1.7e-5 m in
+    /// the chart study's 1:1000 chain at one coarse substep; the projection left those gaps
+    /// with and without this warm start (the runs are chaotic: 1.4e-9 to 1.6e-5 m with the
+    /// start angle moved by 0.01 deg), and no longer does (`tests/lagrange_chain_coarse.rs`).
     fn extrapolate_multipliers(&mut self) {
         let tree = self.regularisation < REGULARISATION_LOOPS;
         let smooth =
