@@ -419,7 +419,7 @@ pub(crate) struct Island {
     /// Per KKT block, the axes the warm start extrapolates the joint's force in (see
     /// `Island::extrapolate_multipliers`): `None` where the rows' own axes are kept.
     warm_axes: Vec<Option<WarmAxes>>,
-    /// Some joint of `warm_axes` is listed: the projection converges to
+    /// Every joint of the island is listed in `warm_axes`: the projection converges to
     /// [`WARM_AXES_TOLERANCE`] times its tolerance.
     warm_axes_active: bool,
     rhs_b: Vec<[Real; 6]>,
