@@ -194,6 +194,9 @@ impl Island {
                 self.warm_axes.iter_mut().for_each(|w| *w = None);
             }
         }
+        if !self.warm_axes_active {
+            return;
+        }
         let st = &self.st;
         let rot = |(slot, b): (Option<usize>, RigidBodyHandle)| match slot {
             Some(i) => st[i].pose.rotation,
@@ -210,6 +213,9 @@ impl Island {
     /// 2's (`into_frame2`, with the turn before the last substep) or back (with the turn after
     /// it).
     fn turn_warm_axes(&mut self, into_frame2: bool) {
+        if !self.warm_axes_active {
+            return;
+        }
         let mu = &mut self.mu[..];
         for w in self.warm_axes.iter().flatten() {
             let [x, y, z] = w.rows;
@@ -274,7 +280,7 @@ impl Island {
         Ok(())
     }
 
-    /// Scales the last step by `f` (a Gauss-Newton step's backtracking).
+    /// Scales the last step by `f`: a Gauss-Newton step's backtracking, and with 0 its undoing.
     fn scale_projection_step(&mut self, h: Real, f: Real) {
         for (s, b) in self.st.iter_mut().zip(&self.backup) {
             (s.pose, s.com) = *b;
@@ -292,30 +298,21 @@ impl Island {
                 *d *= f;
             }
             self.last_x[i] = x;
-            let s = &mut self.st[i];
-            displace(
-                s,
-                Vector::new(x[0], x[1], x[2]),
-                Vector::new(x[3], x[4], x[5]),
-            );
+            if f != 0.0 {
+                let s = &mut self.st[i];
+                displace(
+                    s,
+                    Vector::new(x[0], x[1], x[2]),
+                    Vector::new(x[3], x[4], x[5]),
+                );
+            }
         }
     }
 
     /// Undoes the last chord step, and raises the regularisation for the Gauss-Newton steps
     /// that follow (tenfold at every further failure).
     fn undo_projection_step(&mut self, h: Real, newton: bool) {
-        for (s, b) in self.st.iter_mut().zip(&self.backup) {
-            (s.pose, s.com) = *b;
-        }
-        for i in 0..self.bodies.len() {
-            for (acc, d) in self.shift[i].iter_mut().zip(self.last_x[i]) {
-                *acc -= d;
-            }
-        }
-        for r in 0..self.impulse.len() {
-            self.impulse[r] += self.last_lambda[r] / h;
-            self.mu[r] += self.last_lambda[r];
-        }
+        self.scale_projection_step(h, 0.0);
         self.reg_scale = if newton { self.reg_scale * 10.0 } else { 1.0 };
     }
 
