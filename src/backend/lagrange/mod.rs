@@ -416,12 +416,11 @@ pub(crate) struct Island {
     /// hold a smooth run of them), the polynomial the warm start extrapolates.
     mu_history: [Vec<Real>; MU_HISTORY],
     mu_depth: usize,
-    /// Per KKT block, the axes the warm start extrapolates the joint's force in (see
-    /// `Island::extrapolate_multipliers`): `None` where the rows' own axes are kept.
-    warm_axes: Vec<Option<WarmAxes>>,
-    /// Every joint of the island is listed in `warm_axes`: the projection converges to
-    /// [`WARM_AXES_TOLERANCE`] times its tolerance.
-    warm_axes_active: bool,
+    /// The joints whose warm start extrapolates their force in frame 2's axes (see
+    /// `Island::extrapolate_multipliers`), every joint of the island or none (empty): `None`
+    /// until the island's first projection lists them. While some are listed, the projection
+    /// converges to [`WARM_AXES_TOLERANCE`] times its tolerance.
+    warm_axes: Option<Vec<WarmAxes>>,
     rhs_b: Vec<[Real; 6]>,
     rhs_j: Vec<Real>,
     /// Applied impulse per row accumulated over the current substep (N s).

@@ -29,7 +29,7 @@ impl Island {
         time: Real,
     ) -> Result<(), Error> {
         let nominal = projection_tolerance();
-        let tol = if self.warm_axes_active {
+        let tol = if self.warm_axes.as_ref().is_some_and(|w| !w.is_empty()) {
             WARM_AXES_TOLERANCE * nominal
         } else {
             nominal
@@ -148,18 +148,21 @@ impl Island {
         // cost the bookkeeping (+1.5 % and +1.9 % instructions per step). The island's rows
         // change only with a rebuild (a new island): the list is made once.
         let stiff = self.report.stiffened_bodies > 0 || self.would_stiffen;
-        if stiff && self.warm_axes_active {
-            self.warm_axes = vec![None; self.blocks.len()];
-            self.warm_axes_active = false;
+        if stiff && self.warm_axes.as_ref().is_some_and(|w| !w.is_empty()) {
+            self.warm_axes = Some(Vec::new());
             self.mu_depth = 0;
             return;
         }
-        let fresh = self.warm_axes.len() != self.blocks.len();
+        let fresh = self.warm_axes.is_none();
         if fresh {
             let Some(kkt) = self.kkt.as_ref() else { return };
             let plain =
                 self.regularisation < REGULARISATION_LOOPS && self.kpen.iter().all(|k| *k == 0.0);
-            self.warm_axes = self
+            // Only where every joint takes it: the tighter tolerance costs every joint of the
+            // island chord steps, and a joint left in frame 1's axes keeps the warm start's
+            // error (the mixed scene, whose arms also hold spherical, cylindrical and
+            // translational joints: 1.71 -> 2.28 chord steps per substep, +10 % instructions).
+            let listed: Option<Vec<WarmAxes>> = self
                 .blocks
                 .iter()
                 .enumerate()
@@ -184,25 +187,17 @@ impl Island {
                     })
                 })
                 .collect();
-            // Only where every joint takes it: the tighter tolerance costs every joint of the
-            // island chord steps, and a joint left in frame 1's axes keeps the warm start's
-            // error (the mixed scene, whose arms also hold spherical, cylindrical and
-            // translational joints: 1.71 -> 2.28 chord steps per substep, +10 % instructions).
-            self.warm_axes_active =
-                !self.warm_axes.is_empty() && self.warm_axes.iter().all(Option::is_some);
-            if !self.warm_axes_active {
-                self.warm_axes.iter_mut().for_each(|w| *w = None);
-            }
+            self.warm_axes = Some(listed.unwrap_or_default());
         }
-        if !self.warm_axes_active {
+        let Some(listed) = self.warm_axes.as_mut() else {
             return;
-        }
+        };
         let st = &self.st;
         let rot = |(slot, b): (Option<usize>, RigidBodyHandle)| match slot {
             Some(i) => st[i].pose.rotation,
             None => bodies[b].position().rotation,
         };
-        for w in self.warm_axes.iter_mut().flatten() {
+        for w in listed.iter_mut() {
             let q = w.frames[0] * rot(w.sides[0]).inverse() * rot(w.sides[1]) * w.frames[1];
             let now = Matrix::from_quat(q);
             w.turn = [if fresh { now } else { w.turn[1] }, now];
@@ -213,11 +208,11 @@ impl Island {
     /// 2's (`into_frame2`, with the turn before the last substep) or back (with the turn after
     /// it).
     fn turn_warm_axes(&mut self, into_frame2: bool) {
-        if !self.warm_axes_active {
+        let Some(listed) = self.warm_axes.as_ref() else {
             return;
-        }
+        };
         let mu = &mut self.mu[..];
-        for w in self.warm_axes.iter().flatten() {
+        for w in listed {
             let [x, y, z] = w.rows;
             let m = Vector::new(mu[x], mu[y], mu[z]);
             let v = if into_frame2 {
