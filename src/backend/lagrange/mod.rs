@@ -115,29 +115,51 @@ const REGULARISATION_TREE: Real = 1e-10;
 pub const PROJECTION_TOLERANCE: Real = 1e-10;
 
 /// Substeps of position multipliers the warm start extrapolates from besides the last one
-/// (cubic extrapolation; see `Island::warm_start`).
+/// (up to quartic extrapolation; see `Island::warm_start`).
 ///
-/// Five (quintic, with the order test generalised to any depth) was tried on 2026-11-26 and
-/// dropped. It took chord steps out: on the mixed scene (50 arms, 61 000 island substeps)
-/// the substeps that needed two fell from 10 945 to 3 135 with [`SMOOTH`] at 0.1 (2 291 at
-/// 0.2), and on the 10-link chain the ones that needed three from 2 948 to 1 674 (0.2). But
-/// every scene's step was 1-7 % slower (best of three interleaved runs): the order test over
-/// more differences costs more than the chord steps it saves. The pendulum's bead still takes
-/// two: the effective inverse mass of its pin rows is about 1e5 (a bead's inertia is
-/// `1e-5 m`, see `studies::benchmarks::BEAD_GYRATION_SQUARED`), so the quintic's
-/// extrapolation error (sixth differences of about 5e-14) still leaves 4e-9 to 5e-8 m, and one
-/// chord step (contraction about 0.01 at 1/240 s) often ends just above the tolerance.
-const MU_HISTORY: usize = 3;
+/// Four since 2026-11-27 (three before, cubic), with the order test weighing each row by its
+/// effective inverse mass (see [`SMOOTH`]); the two together are what took chord steps out
+/// (callgrind, 1/60 s x 4, first order; chord steps per island and step, instructions per
+/// step): the mixed scene at 50 arms over steps 6 to 26, its arms' fall from rest, 6.85 -> 4.35
+/// and -8.9 %, over steps 6 to 106 4.65 -> 3.82 and -2.2 %; the 10-link chain 8.32 -> 6.54 and
+/// -5.3 %. Where the chord steps stay (the pendulum 4.77 -> 4.65, the 100-link chains 8.0 ->
+/// 7.9 and 7.96 -> 7.96, at 1:1 and 1:1000), the longer test costs 0.9 to 1.3 %. The quartic
+/// alone, with the unweighted test at 0.05, changed no chord step count.
+///
+/// Five (quintic, with the unweighted order test generalised to any depth) was tried on
+/// 2026-11-26 and dropped. It took chord steps out: on the mixed scene (50 arms, 61 000 island
+/// substeps) the substeps that needed two fell from 10 945 to 3 135 with [`SMOOTH`] at 0.1
+/// (2 291 at 0.2), and on the 10-link chain the ones that needed three from 2 948 to 1 674
+/// (0.2). But every scene's step was 1-7 % slower (best of three interleaved runs). The
+/// pendulum's bead still takes two: the effective inverse mass of its pin rows is about 1e5 (a
+/// bead's inertia is `1e-5 m`, see `studies::benchmarks::BEAD_GYRATION_SQUARED`), so the
+/// quintic's extrapolation error (sixth differences of about 5e-14) still leaves 4e-9 to 5e-8
+/// m, and one chord step (contraction about 0.01 at 1/240 s) often ends just above the
+/// tolerance.
+const MU_HISTORY: usize = 4;
 
-/// The warm start extrapolates one order higher while each backward difference of the
-/// multipliers is below this fraction of the one before (see `Island::extrapolation_order`).
-/// Measured on the mixed scene (200 steps of 100 arms; the largest chord-step count of an island
-/// per step: 1 in 164 steps, 2 in 29, 3 in 4; with 0.02, 1 in 96 and 2 in 180) and on the
-/// slider-crank's free and held idle spin (`tests/idle_modes.rs`, x64: 1.3e-11 m apart; 1.8e-11
-/// to 9.7e-11 m with 0.1 to 0.5, 6e-9 m with the cubic extrapolation always on, whose noise the
-/// spin amplifies; the point-mass deck's 4.7e-9 m of `cli/tests/idle_modes_deck.rs` moves
-/// between 1.3e-9 and 4.7e-9 m with this factor).
-const SMOOTH: Real = 0.05;
+/// The warm start extrapolates one order higher while the island's largest backward difference
+/// of the multipliers, each row's weighed by the row's effective inverse mass, is below this
+/// fraction of the one before (see `Island::extrapolation_order`). A row's difference of order
+/// `k + 1` is the error the extrapolation of order `k` made on the last substep's multiplier,
+/// and the inverse mass turns it into the residual it left: the test compares what each order
+/// would have left the chord iteration, on the scale the tolerance is set on. Unweighted, the
+/// heaviest-loaded rows set it, and a row of small multipliers on a tiny inertia (the
+/// slider-crank's idle spin, below) had its noise extrapolated at the order they allowed.
+///
+/// 0.05 unweighted until 2026-11-27, measured then on the mixed scene (200 steps of 100 arms;
+/// the largest chord-step count of an island per step: 1 in 164 steps, 2 in 29, 3 in 4; with
+/// 0.02, 1 in 96 and 2 in 180). Weighted, on the mixed scene's fall from rest (steps 6 to 26,
+/// 50 arms, quartic at most): chord steps per island and step 7.25 at 0.05 (6.85 unweighted), 4.35
+/// at 0.25, 4.05 at 1 (any improvement). The bound is set by the slider-crank's free and held
+/// idle spin, two different row sets whose slider positions `tests/idle_modes.rs` holds within
+/// 1e-10 m of each other (x16 and x64) and `cli/tests/idle_modes_deck.rs` within 1e-8 m (the
+/// point-mass deck, its rod's spin on 1.1e-8 kg m^2): both pass from 0.2 to 0.32 (x16
+/// 7.2e-12 to 3.1e-11 m, x64 3.6e-11 to 7.1e-11 m, the deck within its bound); 0.05 and 0.1 put the deck at 1.26e-8 and
+/// 1.08e-8 m, 0.35 to 1 put `idle_modes` at 1.8e-10 to 5.3e-10 m, unweighted 1 at 1.7e-9 m (x16).
+/// Those figures move without order with the factor: the runs sit at the scenes' round-off
+/// sensitivity (see the deck test's header).
+const SMOOTH: Real = 0.25;
 
 /// A warm start leaving a residual above this (m or rad) is undone.
 const WARM_START_LIMIT: Real = 1e-3;
@@ -380,6 +402,8 @@ pub(crate) struct Island {
     mass: Vec<[Real; 36]>,
     jac: Vec<Real>,
     compliance: Vec<Real>,
+    /// Per row: its effective inverse mass `J M^-1 J^T` (diagonal) at the last substep's end.
+    inv_mass: Vec<Real>,
     /// Per row: constraint value, kinematic-body velocity term, whether it is a penalty row.
     value: Vec<Real>,
     kin: Vec<Real>,
