@@ -150,15 +150,15 @@ const MU_HISTORY: usize = 4;
 /// 0.05 unweighted until 2026-11-27, measured then on the mixed scene (200 steps of 100 arms;
 /// the largest chord-step count of an island per step: 1 in 164 steps, 2 in 29, 3 in 4; with
 /// 0.02, 1 in 96 and 2 in 180). Weighted, on the mixed scene's fall from rest (steps 6 to 26,
-/// 50 arms, quartic at most): chord steps per island and step 7.25 at 0.05 (6.85 unweighted), 4.35
-/// at 0.25, 4.05 at 1 (any improvement). The bound is set by the slider-crank's free and held
-/// idle spin, two different row sets whose slider positions `tests/idle_modes.rs` holds within
-/// 1e-10 m of each other (x16 and x64) and `cli/tests/idle_modes_deck.rs` within 1e-8 m (the
-/// point-mass deck, its rod's spin on 1.1e-8 kg m^2): both pass from 0.2 to 0.32 (x16
-/// 7.2e-12 to 3.1e-11 m, x64 3.6e-11 to 7.1e-11 m, the deck within its bound); 0.05 and 0.1 put the deck at 1.26e-8 and
-/// 1.08e-8 m, 0.35 to 1 put `idle_modes` at 1.8e-10 to 5.3e-10 m, unweighted 1 at 1.7e-9 m (x16).
-/// Those figures move without order with the factor: the runs sit at the scenes' round-off
-/// sensitivity (see the deck test's header).
+/// 50 arms, quartic at most): chord steps per island and step 7.25 at 0.05 (6.85 unweighted),
+/// 4.35 at 0.25, 4.05 at 1 (any improvement). The bound is set by the slider-crank's free and
+/// held idle spin, two different row sets whose slider positions `tests/idle_modes.rs` holds
+/// within 1e-10 m of each other (x16 and x64) and `cli/tests/idle_modes_deck.rs` within 1e-8 m
+/// (the point-mass deck, its rod's spin on 1.1e-8 kg m^2): both pass from 0.2 to 0.32 (x16
+/// 7.2e-12 to 3.1e-11 m, x64 3.6e-11 to 7.1e-11 m, the deck within its bound); 0.05 and 0.1
+/// put the deck at 1.26e-8 and 1.08e-8 m, 0.35 to 1 put `idle_modes` at 1.8e-10 to 5.3e-10 m,
+/// unweighted 1 at 1.7e-9 m (x16). Those figures move without order with the factor: the runs
+/// sit at the scenes' round-off sensitivity (see the deck test's header).
 const SMOOTH: Real = 0.25;
 
 /// A warm start leaving a residual above this (m or rad) is undone.

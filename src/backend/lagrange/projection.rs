@@ -400,11 +400,10 @@ impl Island {
     /// smoothly with time), up to quartic from the last five (see `MU_HISTORY`; measured on the
     /// mixed scene with the cubic: the residual the chord iteration starts from fell from
     /// 3.4e-7 to 1.7e-9 against linear extrapolation, and the chord steps per substep from 2.3
-    /// to 1.14), except where they
-    /// do not vary smoothly: on penalty rows (their projection target moves with their own
-    /// impulse: the k = 1e10 pendulum's gap * k moved by 1 %), where the run starts again. A
-    /// composed island's stages differ in size (and their multipliers with it): it
-    /// extrapolates linearly.
+    /// to 1.14), except where they do not vary smoothly: on penalty rows (their projection
+    /// target moves with their own impulse: the k = 1e10 pendulum's gap * k moved by 1 %),
+    /// where the run starts again. A composed island's stages differ in size (and their
+    /// multipliers with it): it extrapolates linearly.
     ///
     /// An island with a loop also starts again while it has bodies given added inertia (the
     /// 1:1000 chain needed 5 iterations instead of 2 when trees took the loops'
