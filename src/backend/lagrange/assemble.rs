@@ -153,7 +153,6 @@ impl Island {
         let (jac, st) = (&self.jac[..], &self.st[..]);
         let (kin, penalty) = (&mut self.kin[..], &mut self.penalty[..]);
         let (kpen, compliance) = (&mut self.kpen[..], &mut self.compliance[..]);
-        let inv_mass = &mut self.inv_mass[..];
         for (k, &j) in self.blocks.iter().enumerate() {
             let Some(e) = joints.get(j) else { continue };
             let [i1, i2] = kkt.joint_specs()[k].bodies;
@@ -198,7 +197,6 @@ impl Island {
                     }
                 }
                 kin[r] = rate;
-                inv_mass[r] = a;
                 penalty[r] = k_pen.is_some();
                 kpen[r] = k_pen.unwrap_or(0.0);
                 compliance[r] = match k_pen {

@@ -402,8 +402,6 @@ pub(crate) struct Island {
     mass: Vec<[Real; 36]>,
     jac: Vec<Real>,
     compliance: Vec<Real>,
-    /// Per row: its effective inverse mass `J M^-1 J^T` (diagonal) at the last substep's end.
-    inv_mass: Vec<Real>,
     /// Per row: constraint value, kinematic-body velocity term, whether it is a penalty row.
     value: Vec<Real>,
     kin: Vec<Real>,

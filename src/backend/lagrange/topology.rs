@@ -211,7 +211,6 @@ impl Island {
         self.saved = vec![(0.0, Vector::ZERO, Vector::ZERO); nb];
         self.jac = vec![0.0; JAC_ROW_STRIDE * nr];
         self.compliance = vec![0.0; nr];
-        self.inv_mass = vec![0.0; nr];
         self.value = vec![0.0; nr];
         self.kin = vec![0.0; nr];
         self.penalty = vec![false; nr];
