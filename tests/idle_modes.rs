@@ -11,9 +11,15 @@
 //!    gyroscopic torque `w_s (I_t - I_a) (a x w_perp)` loads the joints: 1.1e-4 m on the slider
 //!    after 1 s, measured. So the free run is started without the spin, which moves no joint
 //!    point and keeps the start consistent. With RATTLE over 1 s the slider positions with and
-//!    without the row then agree to within the projection's tolerance: 2.1e-13 m at 1/60 x16
-//!    and 1.3e-11 m at x64 (1.3e-13 and 3.4e-14 m with the linear warm start of the
-//!    projection, whose iterations went deeper), out of a travel of 0.09 m, and the free rod's spin stays near zero (1.2e-5 rad/s at x16,
+//!    without the row then agree to far less than the step's own error: each run is 1.83e-5
+//!    m (1/60 x16) and 1.14e-6 m (x64) from the held run at x1024, and the two differ by
+//!    4e-12 to 5.3e-10 m, out of a travel of 0.09 m. Asserted: at most 1e-3 of that error.
+//!    The difference is the two row sets' projections stopping at different points within
+//!    their tolerance, and it moves with any change at the round-off level: across eleven
+//!    factors of the warm start's order test (`SMOOTH`, 2026-11-27) it went from 4e-12 to
+//!    5.3e-10 m at x16 and from 3.6e-11 to 3.1e-10 m at x64, in no order, while the errors
+//!    stayed the same to four digits (it was held at 1e-10 m before, which the factor 1 broke
+//!    at x16). The free rod's spin stays near zero (1.2e-5 rad/s at x16,
 //!    1.8e-7 at x64: its discretisation error). The rod drifts as a free rotor (its angular
 //!    momentum kept over the drift, `Island::drift`); with the earlier constant-`w` drift and
 //!    gyroscopic kicks the free run was off by 2.8e-5 m at x16 and its rod spun up to
@@ -65,12 +71,15 @@ fn the_spherical_rod_has_one_idle_spin_along_its_axis() {
     assert!(p.world.idle_modes().is_empty());
 }
 
-/// Slider difference (m) over 1 s between the free run (started without the spin) and the
-/// run with the idle spin removed, at `substeps` per 1/60 s; the slider's travel (m); the
-/// rod's spin at the end in the free run and in the held run (rad/s).
-fn compare(substeps: usize) -> (Real, Real, Real, Real) {
+/// Over 1 s at `substeps` per 1/60 s: the slider difference (m) between the free run
+/// (started without the spin) and the run with the idle spin removed; the held run's own error
+/// (m, against the held run at x1024, see the header); the slider's travel (m); the rod's spin
+/// at the end in the free run and in the held run (rad/s).
+fn compare(substeps: usize) -> (Real, Real, Real, Real, Real) {
     let mut free = crank(RodSliderJoint::Spherical, substeps);
     let mut held = crank(RodSliderJoint::Spherical, substeps);
+    let mut reference = crank(RodSliderJoint::Spherical, 1024);
+    reference.world.remove_idle_modes().unwrap();
     let rod = held.bodies[1];
     let axis = held.world.idle_modes()[0].axis;
     let spin0 = held.world.physics.bodies[rod].angvel().dot(axis);
@@ -88,36 +97,40 @@ fn compare(substeps: usize) -> (Real, Real, Real, Real) {
     assert_eq!(removed.len(), 1);
     assert!(held.world.idle_modes().is_empty(), "removed modes are gone");
     let slider = held.bodies[2];
-    let (mut worst, mut travel): (Real, Real) = (0.0, 0.0);
+    let (mut worst, mut error, mut travel): (Real, Real, Real) = (0.0, 0.0, 0.0);
     let x0 = held.world.physics.bodies[slider].translation().x;
     for _ in 0..60 {
         free.world.step().unwrap();
         held.world.step().unwrap();
+        reference.world.step().unwrap();
         let a = free.world.physics.bodies[slider].translation();
         let b = held.world.physics.bodies[slider].translation();
+        let r = reference.world.physics.bodies[slider].translation();
         worst = worst.max((a - b).length());
+        error = error.max((b - r).length());
         travel = travel.max((b.x - x0).abs());
     }
     let spin = |b: &benchmarks::Benchmark| {
         let rb = &b.world.physics.bodies[rod];
         rb.angvel().dot(rb.position().rotation * Vector::X)
     };
-    (worst, travel, spin(&free), spin(&held))
+    (worst, error, travel, spin(&free), spin(&held))
 }
 
 #[test]
 fn removing_the_idle_spin_leaves_the_slider_alone() {
-    let (d16, travel, free16, held16) = compare(16);
-    let (d64, _, free64, held64) = compare(64);
+    let (d16, e16, travel, free16, held16) = compare(16);
+    let (d64, e64, _, free64, held64) = compare(64);
     eprintln!(
-        "slider difference {d16:e} m (x16), {d64:e} m (x64) over a travel of {travel} m; \
-         free spin {free16} / {free64} rad/s, held {held16:e} / {held64:e}"
+        "slider difference {d16:e} m (x16), {d64:e} m (x64), against the held run's own error \
+         {e16:e} and {e64:e} m, over a travel of {travel} m; free spin {free16} / {free64} \
+         rad/s, held {held16:e} / {held64:e}"
     );
     assert!(travel > 0.05, "the slider moves: {travel}");
-    // Measured 2.1e-13 m at x16 and 1.3e-11 m at x64: the same motion over 60 steps to within
-    // the projection's tolerance (1e-10 m per substep; 1e-10 m is 1e-9 of the travel, far below
-    // the 2.8e-5 m the constant-`w` drift gave).
-    assert!(d16 < 1e-10 && d64 < 1e-10, "{d16} {d64}");
+    // The removal changes the motion by far less than the step's own error: at most 1e-3 of
+    // it (see the header; measured 1.8e-5 and 1.1e-6 m of error, differences of 4e-12 to
+    // 5.3e-10 m). The constant-`w` drift's 2.8e-5 m at x16 fails it by a factor 1500.
+    assert!(d16 < 1e-3 * e16 && d64 < 1e-3 * e64, "{d16} {d64}");
     // The free run's spin is not held by anything, only by the integrator: measured 1.2e-5
     // rad/s at x16 and 1.8e-7 at x64 (it was -0.97 and -0.24 with the constant-`w` drift).
     assert!(

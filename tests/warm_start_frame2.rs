@@ -9,7 +9,8 @@
 //! (`LagrangeDiagnostics::projection_iterations`), averaged from the fifth step on (the
 //! extrapolation's history fills over the first substeps).
 //!
-//! Measured: 1.20 on the pendulum and 2.25 on the chain; in fixed axes 2.06 and 3.06 (the
+//! Measured: 1.23 on the pendulum and 2.00 on the chain (1.20 and 2.25 before the warm start's
+//! order test weighed its rows, `tests/warm_start_order.rs`); in fixed axes 2.06 and 3.06 (the
 //! warm start left 5e-6 to 1.3e-5 m on the pendulum, one chord step took it to 1e-7 and a
 //! second below the 1e-10 m tolerance). Asserted: at most 1.6 and 2.65, about halfway between
 //! the two (a regression to fixed axes fails both).
@@ -17,7 +18,7 @@
 //! Such an island converges its projection to a tenth of the tolerance
 //! (`WARM_AXES_TOLERANCE`: at the bare tolerance its single chord step lands just below it,
 //! and the trajectory moved by 5e-9 m on the 1:1000 chain): the largest gap over the run is
-//! at most 2e-11 m (measured 8.8e-12 and 9.6e-12 m; 1e-11 m with room for the gap's
+//! at most 2e-11 m (measured 9.2e-12 and 9.0e-12 m; 1e-11 m with room for the gap's
 //! evaluation from the written-back poses), where the frame-1 warm start's islands keep the
 //! tolerance of 1e-10 m.
 #![cfg(feature = "f64")]

@@ -17,8 +17,9 @@
 //!   at the end of each step, 766 rad/s at t = 0.35 s and exit 3 (the spin's peak sits near
 //!   the bound of pi per step, so which side of it a run falls is not the point).
 //! - The removal changes nothing else: at a fine step (RATTLE, x64) both runs reach the end and
-//!   the slider's x differs by at most 1e-8 m over 2 s (measured 7.7e-9 m on 2026-11-27, 4.7e-9
-//!   m before: two different row sets, each projected to 1e-10 m per substep over 30 720
+//!   the slider's x differs by at most 1e-8 m over 2 s (measured 2.5e-9 m with the warm
+//!   start's weighted order test, 7.7e-9 m before it on 2026-11-27, 4.7e-9 m before that: two
+//!   different row sets, each projected to 1e-10 m per substep over 30 720
 //!   substeps, on a spin of tiny inertia that amplifies the difference; 7.8e-10 m with the
 //!   linear warm start of the projection, before the higher orders); the slider travels 0.065
 //!   m), and the energy balance of the removed run stays below 1e-6 J (measured 5.0e-9 J).
