@@ -10,7 +10,7 @@
 //! added around each call. After the step every joint's output (relative DOFs in ANSYS terms,
 //! their rates, the reaction force and moment on node J in frame I) is refreshed.
 
-use crate::backend::{Capability, JointBackend, LagrangeDiagnostics, Sets};
+use crate::backend::{Capability, JointBackend, LagrangeDiagnostics, OutputPass, Sets};
 use crate::divergence::{Bounds, Checkpoint, DivergenceLimits, Progress};
 use crate::dof::Dof;
 pub use crate::drive::{Drive, DriveLevel, DriveProfile};
@@ -735,16 +735,21 @@ impl Mpc184World {
         let start = crate::work::StepStart::record(&self.physics.bodies);
         let reactions = self.core.settings.outputs == Outputs::Full
             || self.backend.needs_reactions(&mut self.core.joints);
+        let bounds = self.bounds();
+        let out = OutputPass {
+            reactions,
+            ratio: &|o| bounds.ratio(o),
+        };
         self.backend
-            .step(&mut self.core.sets(&mut self.physics), h, n, reactions)?;
+            .step(&mut self.core.sets(&mut self.physics), h, n, &out)?;
         self.core.progress.time += dt;
         self.check_bodies_finite()?;
+        // The joints the backend has not written already (`JointBackend::refreshed`).
         if reactions {
             self.backend
                 .write_reactions(&mut self.core.sets(&mut self.physics), h);
         }
-        let bounds = self.bounds();
-        let worst = self.refresh_outputs_within(Some(&bounds));
+        let worst = self.refresh_step_outputs(&bounds);
         self.core.progress.ledger.work += start.work(&self.physics.bodies, &self.core.joints, dt);
         match worst {
             Some(j) => Err(bounds.error(&self.core.joints, j, self.time())),
@@ -885,22 +890,39 @@ impl Mpc184World {
     /// [`Mpc184World::refresh_outputs`], checking each output against `bounds` as it is
     /// written (one pass over the joints): the joint furthest past a bound, if any.
     fn refresh_outputs_within(&mut self, bounds: Option<&Bounds>) -> Option<usize> {
+        self.refresh_outputs_by(bounds, false)
+    }
+
+    /// [`Mpc184World::refresh_outputs_within`] after a step: the joints whose outputs the
+    /// backend refreshed during the step ([`JointBackend::refreshed`]) keep them, with the
+    /// ratio it took.
+    fn refresh_step_outputs(&mut self, bounds: &Bounds) -> Option<usize> {
+        self.refresh_outputs_by(Some(bounds), true)
+    }
+
+    /// See [`Mpc184World::refresh_outputs_within`] and [`Mpc184World::refresh_step_outputs`].
+    fn refresh_outputs_by(&mut self, bounds: Option<&Bounds>, after_step: bool) -> Option<usize> {
         let roles = self.core.joints.roles();
         // `roles.springs` is in joint order: merged with the loop.
         let mut springs = roles.springs.iter().peekable();
         let (physics, backend) = (&self.physics, &self.backend);
+        let done = if after_step { backend.refreshed() } else { &[] };
         let mut worst: Option<(usize, Real)> = None;
         for i in 0..self.core.joints.len() {
             let spring = springs.next_if_eq(&&i).is_some();
-            let Some(e) = self.core.joints.get_mut(i) else {
-                continue;
+            let r = if let Some(&Some(r)) = done.get(i) {
+                r
+            } else {
+                let Some(e) = self.core.joints.get_mut(i) else {
+                    continue;
+                };
+                e.refresh_output(
+                    &physics.bodies,
+                    |h| backend.body_velocity(physics, h),
+                    spring,
+                );
+                bounds.map_or(0.0, |b| b.ratio(&e.state.output))
             };
-            e.refresh_output(
-                &physics.bodies,
-                |h| backend.body_velocity(physics, h),
-                spring,
-            );
-            let r = bounds.map_or(0.0, |b| b.ratio(&e.state.output));
             if r > 1.0 && worst.is_none_or(|(_, w)| r > w) {
                 worst = Some((i, r));
             }

@@ -81,7 +81,7 @@ use crate::math::{Matrix, Pose, Real, Rotation, Vector};
 use crate::output::EnergyLedger;
 use crate::solver::kkt::{JAC_ROW_STRIDE, KktSolver};
 
-use super::Sets;
+use super::{OutputPass, Sets};
 
 /// Default penalty stiffness on translations (N/m) for `SECJOINT,PNLT,DISP,val > 0` (scaled by
 /// val) : stiff against typical machine loads (1 kN gives 10 um).
@@ -561,6 +561,54 @@ pub(crate) struct LagrangeBackend {
     /// Warnings issued so far.
     warned: Vec<Warning>,
     fx: effects::Effects,
+    /// See [`LagrangeBackend::refreshed`] (rewritten by every step).
+    #[cfg_attr(feature = "serde-snapshot", serde(skip))]
+    refreshed: Vec<Option<Real>>,
+}
+
+/// What every island's step starts from (see [`Island::start_step`]).
+struct IslandStart<'a> {
+    roles: &'a Roles,
+    h: Real,
+    /// The structure was rebuilt for this step.
+    rebuilt: bool,
+}
+
+/// Joint `ji`'s element forces and, unless it is `asleep`, its reaction (block `k` of
+/// `island`, if it has rows) into its output. Each island divides by the size of its own last
+/// substep (a stage of the fourth-order composition is shorter than `h`).
+fn write_reaction(
+    e: &mut crate::joint_set::JointEntry,
+    ji: usize,
+    fx: &effects::Effects,
+    island: Option<(&Island, usize)>,
+    asleep: bool,
+    bodies: &crate::math::rapier::dynamics::RigidBodySet,
+) {
+    let (element_force, on_body2) = fx.forces_of(ji);
+    e.state.output.element_force = element_force;
+    if asleep {
+        return;
+    }
+    let (mut f, mut tau) = (Vector::ZERO, Vector::ZERO);
+    if let Some((island, k)) = island
+        && let Some(rows) = island.block_rows(k)
+    {
+        // The Jacobian arena holds every row's derivative with respect to body 2 at the last
+        // substep's end, the state written back (the last row evaluation of a substep is at
+        // its end): the rows need not be evaluated again.
+        let h = island.last_h;
+        for r in rows {
+            let jr = &island.jac[JAC_ROW_STRIDE * r + 6..JAC_ROW_STRIDE * (r + 1)];
+            let m = island.impulse[r] / h;
+            f += Vector::new(jr[0], jr[1], jr[2]) * m;
+            tau += Vector::new(jr[3], jr[4], jr[5]) * m;
+        }
+    }
+    // Springs, dampers, loads and limit impulses of the last substep.
+    f += on_body2.0;
+    tau += on_body2.1;
+    e.set_reaction(bodies, f, tau);
 }
 
 fn kkt_err(e: crate::solver::kkt::KktError, time: Real) -> Error {
@@ -572,8 +620,15 @@ fn kkt_err(e: crate::solver::kkt::KktError, time: Real) -> Error {
 }
 
 impl LagrangeBackend {
-    /// Runs one step of `n` substeps of `h`.
-    pub(crate) fn step(&mut self, sets: &mut Sets, h: Real, n: usize) -> Result<(), Error> {
+    /// Runs one step of `n` substeps of `h`, with the outputs of the islands it integrates
+    /// alone (see [`LagrangeBackend::refreshed`]).
+    pub(crate) fn step(
+        &mut self,
+        sets: &mut Sets,
+        h: Real,
+        n: usize,
+        out: &OutputPass,
+    ) -> Result<(), Error> {
         self.fx.fit(sets.joints);
         sets.joints.apply_pending_locks()?;
         let roles = sets.joints.roles();
@@ -583,15 +638,19 @@ impl LagrangeBackend {
             self.topology(sets)?;
         }
         let alone = integrates_alone(sets, &self.islands);
-        for island in &mut self.islands {
-            island.fresh_report();
-            island.prepare(&roles, sets, h, rebuilt)?;
-            island.choose_composition(sets.integrator, alone);
-            island.last_h = h;
-        }
+        self.refreshed.clear();
         if alone {
-            self.step_islands_alone(sets, h, n)?;
+            self.refreshed.resize(sets.joints.len(), None);
+            let start = IslandStart {
+                roles: &roles,
+                h,
+                rebuilt,
+            };
+            self.step_islands_alone(sets, &start, n, out)?;
         } else {
+            for island in &mut self.islands {
+                island.start_step(sets, &roles, h, rebuilt, false)?;
+            }
             for k in 0..n {
                 let t1 = sets.time + (k + 1) as Real * h;
                 for island in &mut self.islands {
@@ -638,40 +697,28 @@ impl LagrangeBackend {
     }
 
     /// Reactions from the multipliers of the last substep (plus the springs', dampers',
-    /// loads' and limits' forces), and the element forces, into the joints' outputs. Each
-    /// island divides by the size of its own last substep (a stage of the fourth-order
-    /// composition is shorter than `h`).
+    /// loads' and limits' forces), and the element forces, into the outputs of the joints
+    /// the step did not refresh already ([`LagrangeBackend::refreshed`]).
     pub(crate) fn write_reactions(&mut self, sets: &mut Sets) {
         let bodies = &sets.physics.bodies;
         for (ji, e) in sets.joints.slots_mut().iter_mut().enumerate() {
-            let Some(e) = e else { continue };
-            let (element_force, on_body2) = self.fx.forces_of(ji);
-            e.state.output.element_force = element_force;
-            // An asleep island keeps the reactions it had when it fell asleep.
-            if self.asleep.get(ji).copied().unwrap_or(false) {
+            if matches!(self.refreshed.get(ji), Some(Some(_))) {
                 continue;
             }
-            let (mut f, mut tau) = (Vector::ZERO, Vector::ZERO);
-            if let Some(&Some((i, k))) = self.block_of.get(ji)
-                && let Some(rows) = self.islands[i].block_rows(k)
-            {
-                // The Jacobian arena holds every row's derivative with respect to body 2 at
-                // the last substep's end, the state written back (the last row evaluation of
-                // a substep is at its end): the rows need not be evaluated again.
-                let island = &self.islands[i];
-                let h = island.last_h;
-                for r in rows {
-                    let jr = &island.jac[JAC_ROW_STRIDE * r + 6..JAC_ROW_STRIDE * (r + 1)];
-                    let m = island.impulse[r] / h;
-                    f += Vector::new(jr[0], jr[1], jr[2]) * m;
-                    tau += Vector::new(jr[3], jr[4], jr[5]) * m;
-                }
-            }
-            // Springs, dampers, loads and limit impulses of the last substep.
-            f += on_body2.0;
-            tau += on_body2.1;
-            e.set_reaction(bodies, f, tau);
+            let Some(e) = e else { continue };
+            // An asleep island keeps the reactions it had when it fell asleep.
+            let asleep = self.asleep.get(ji).copied().unwrap_or(false);
+            let island = match self.block_of.get(ji) {
+                Some(&Some((i, k))) => Some((&self.islands[i], k)),
+                _ => None,
+            };
+            write_reaction(e, ji, &self.fx, island, asleep, bodies);
         }
+    }
+
+    /// Per world joint, after a step: see [`super::JointBackend::refreshed`].
+    pub(crate) fn refreshed(&self) -> &[Option<Real>] {
+        &self.refreshed
     }
 
     /// Puts every island's bodies back onto the constraints after the adaptive control moved
@@ -728,6 +775,58 @@ impl Island {
             redundant_rows: self.report.redundant_rows,
             ..IslandReport::default()
         };
+    }
+
+    /// A step's start: a fresh report, [`Island::prepare`], the composition (`alone`: the
+    /// island integrates its bodies itself) and the substep.
+    fn start_step(
+        &mut self,
+        sets: &Sets,
+        roles: &Roles,
+        h: Real,
+        rebuilt: bool,
+        alone: bool,
+    ) -> Result<(), Error> {
+        self.fresh_report();
+        self.prepare(roles, sets, h, rebuilt)?;
+        self.choose_composition(sets.integrator, alone);
+        self.last_h = h;
+        Ok(())
+    }
+
+    /// The reactions (if `out` asks for them) and outputs of the island's joints after its
+    /// step, each joint's divergence ratio into `refreshed` (see
+    /// [`LagrangeBackend::refreshed`]): the same as the world's passes after the step, joint
+    /// by joint. The island's joints are never asleep, and its blocks are its own.
+    fn refresh_outputs(
+        &self,
+        fx: &effects::Effects,
+        sets: &mut Sets,
+        roles: &Roles,
+        out: &OutputPass,
+        refreshed: &mut [Option<Real>],
+    ) {
+        let bodies = &sets.physics.bodies;
+        let velocity = |b: RigidBodyHandle| {
+            let rb = &bodies[b];
+            (rb.linvel(), rb.angvel())
+        };
+        // `blocks` and `roles.springs` are ascending, as `members` is: merged with the loop.
+        let mut blocks = self.blocks.iter().enumerate().peekable();
+        let mut springs = roles.springs.iter().peekable();
+        for &ji in &self.members {
+            let block = blocks.next_if(|(_, j)| **j == ji).map(|(k, _)| (self, k));
+            while springs.next_if(|j| **j < ji).is_some() {}
+            let spring = springs.next_if_eq(&&ji).is_some();
+            let Some(e) = sets.joints.get_mut(ji) else {
+                continue;
+            };
+            if out.reactions {
+                write_reaction(e, ji, fx, block, false, bodies);
+            }
+            e.refresh_output(bodies, velocity, spring);
+            refreshed[ji] = Some((out.ratio)(&e.state.output));
+        }
     }
 
     /// A step's start: the bodies from Rapier, and the factorisation unless the last

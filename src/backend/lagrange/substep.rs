@@ -10,11 +10,11 @@ use crate::solver::kkt::{JAC_ROW_STRIDE, KktSolver};
 
 use crate::output::EnergyLedger;
 
-use super::super::Sets;
+use super::super::{OutputPass, Sets};
 use super::effects::Effects;
 use super::{
-    BodyState, Island, LagrangeBackend, MAX_VELOCITY_REFINEMENTS, free_rotor, gyroscopic_kick,
-    kkt_err, projection_tolerance, rotation_scale, velocity_tolerance,
+    BodyState, Island, IslandStart, LagrangeBackend, MAX_VELOCITY_REFINEMENTS, free_rotor,
+    gyroscopic_kick, kkt_err, projection_tolerance, rotation_scale, velocity_tolerance,
 };
 
 /// The stage sizes of the fourth-order composition, in units of the substep: Suzuki's
@@ -68,21 +68,28 @@ impl LagrangeBackend {
         Ok(())
     }
 
-    /// One step of `n` substeps of `h` for every island, each integrating its bodies itself
-    /// (see `integrates_alone`). With the `parallel` feature the plain islands (see
-    /// [`Island::step_plain`]) step on rayon's pool first: they read the joint set and the
-    /// bodies outside them (the ground, fixed bodies) and write only their own state, so the
-    /// order does not matter and the result is the serial one to the bit. The first error in
-    /// island order is returned (the world rolls the step back).
+    /// One step of `n` substeps for every island, each integrating its bodies itself (see
+    /// `integrates_alone`), from its start ([`Island::start_step`]) to its joints' outputs
+    /// ([`Island::refresh_outputs`]) in one pass over the island, while its data is in cache.
+    /// With the `parallel` feature the islands start first, and the plain ones (see
+    /// [`Island::step_plain`]) step on rayon's pool: they read the joint set and the bodies
+    /// outside them (the ground, fixed bodies) and write only their own state, so the order
+    /// does not matter and the result is the serial one to the bit. The first error in island
+    /// order is returned (the world rolls the step back).
     pub(super) fn step_islands_alone(
         &mut self,
         sets: &mut Sets,
-        h: Real,
+        start: &IslandStart,
         n: usize,
+        out: &OutputPass,
     ) -> Result<(), Error> {
+        let h = start.h;
         #[cfg(feature = "parallel")]
         let mut done = {
             use rayon::prelude::*;
+            for island in &mut self.islands {
+                island.start_step(sets, start.roles, h, start.rebuilt, true)?;
+            }
             let (joints, bodies, time) = (&*sets.joints, &sets.physics.bodies, sets.time);
             let results: Vec<Option<Result<(), Error>>> = self
                 .islands
@@ -102,10 +109,14 @@ impl LagrangeBackend {
                 result?;
                 island.write_back(sets.physics, sets.time)?;
                 island.sleep_check(&mut sets.physics.bodies, h * n as Real);
+                island.refresh_outputs(&self.fx, sets, start.roles, out, &mut self.refreshed);
                 continue;
             }
+            #[cfg(not(feature = "parallel"))]
+            island.start_step(sets, start.roles, h, start.rebuilt, true)?;
             island.step_alone(&mut self.fx, sets, h, n)?;
             island.sleep_check(&mut sets.physics.bodies, h * n as Real);
+            island.refresh_outputs(&self.fx, sets, start.roles, out, &mut self.refreshed);
         }
         Ok(())
     }
