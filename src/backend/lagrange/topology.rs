@@ -4,7 +4,7 @@
 use std::collections::{BTreeMap, HashMap};
 
 use crate::error::Error;
-use crate::joint_set::{JointSet, RapierJoint};
+use crate::joint_set::{JointEntry, JointSet, RapierJoint};
 use crate::math::rapier::dynamics::{JointAxesMask, RigidBodyHandle, RigidBodySet};
 use crate::math::{Pose, Vector};
 use crate::settings::{Backend, Integrator};
@@ -24,7 +24,7 @@ impl LagrangeBackend {
         self.dirty
             || self.topology != sets.joints.topology()
             || self.spring_topology != sets.springs.topology()
-            || asleep(sets.joints, &sets.physics.bodies) != self.asleep
+            || asleep_changed(sets.joints, &sets.physics.bodies, &self.asleep)
             || self.colliders != sets.physics.colliders.len()
     }
 
@@ -343,16 +343,35 @@ pub(super) fn asleep(joints: &JointSet, bodies: &RigidBodySet) -> Vec<bool> {
     joints
         .slots()
         .iter()
-        .map(|e| {
-            e.as_ref().is_some_and(|e| {
-                let dynamic: Vec<_> = [e.body1, e.body2]
-                    .into_iter()
-                    .filter(|b| bodies[*b].is_dynamic())
-                    .collect();
-                !dynamic.is_empty() && dynamic.iter().all(|b| bodies[*b].is_sleeping())
-            })
-        })
+        .map(|e| e.as_ref().is_some_and(|e| joint_asleep(e, bodies)))
         .collect()
+}
+
+/// [`asleep`] now differs from `was`, without building the list (the test runs every step:
+/// with a list of each joint's dynamic bodies it allocated once per joint and step, 0.3 to
+/// 0.7 % of the step's instructions on the pendulum, the chains and the mixed scene).
+fn asleep_changed(joints: &JointSet, bodies: &RigidBodySet, was: &[bool]) -> bool {
+    let slots = joints.slots();
+    slots.len() != was.len()
+        || slots
+            .iter()
+            .zip(was)
+            .any(|(e, &w)| e.as_ref().is_some_and(|e| joint_asleep(e, bodies)) != w)
+}
+
+/// Every dynamic body joint `e` connects is asleep, and it has one.
+fn joint_asleep(e: &JointEntry, bodies: &RigidBodySet) -> bool {
+    let mut dynamic = false;
+    for b in [e.body1, e.body2] {
+        let rb = &bodies[b];
+        if rb.is_dynamic() {
+            if !rb.is_sleeping() {
+                return false;
+            }
+            dynamic = true;
+        }
+    }
+    dynamic
 }
 
 /// Rapier's own copy of a joint's rows rides along only where a contact can act (either body
