@@ -71,10 +71,10 @@ impl LagrangeBackend {
     /// One step of `n` substeps for every island, each integrating its bodies itself (see
     /// `integrates_alone`), from its start ([`Island::start_step`]) to its joints' outputs
     /// ([`Island::refresh_outputs`]) in one pass over the island, while its data is in cache.
-    /// With the `parallel` feature the islands start first, and the plain ones (see
-    /// [`Island::step_plain`]) step on rayon's pool: they read the joint set and the bodies
-    /// outside them (the ground, fixed bodies) and write only their own state, so the order
-    /// does not matter and the result is the serial one to the bit. The first error in island
+    /// With the `parallel` feature every island starts on rayon's pool, and the plain ones (see
+    /// [`Island::step_plain`]) step there too: they read the joint set and the bodies outside
+    /// them (the ground, fixed bodies) and write only their own state, so the order does not
+    /// matter and the result is the serial one to the bit. The first error in island
     /// order is returned (the world rolls the step back).
     pub(super) fn step_islands_alone(
         &mut self,
@@ -87,26 +87,26 @@ impl LagrangeBackend {
         #[cfg(feature = "parallel")]
         let mut done = {
             use rayon::prelude::*;
-            for island in &mut self.islands {
-                island.start_step(sets, start.roles, h, start.rebuilt, true)?;
-            }
-            let (joints, bodies, time) = (&*sets.joints, &sets.physics.bodies, sets.time);
-            let results: Vec<Option<Result<(), Error>>> = self
+            // Each island's start reads the sets and writes only the island.
+            let shared: &Sets = sets;
+            let (joints, bodies, time) = (&*shared.joints, &shared.physics.bodies, shared.time);
+            let results: Vec<Result<bool, Error>> = self
                 .islands
                 .par_iter_mut()
                 .with_min_len(4)
                 .map(|island| {
-                    island
-                        .plain
-                        .then(|| island.step_plain(joints, bodies, time, h, n))
+                    island.start_step(shared, start.roles, h, start.rebuilt, true)?;
+                    if island.plain {
+                        island.step_plain(joints, bodies, time, h, n)?;
+                    }
+                    Ok(island.plain)
                 })
                 .collect();
             results.into_iter()
         };
         for island in &mut self.islands {
             #[cfg(feature = "parallel")]
-            if let Some(result) = done.next().flatten() {
-                result?;
+            if done.next().transpose()? == Some(true) {
                 island.write_back(sets.physics, sets.time)?;
                 island.sleep_check(&mut sets.physics.bodies, h * n as Real);
                 island.refresh_outputs(&self.fx, sets, start.roles, out, &mut self.refreshed);
