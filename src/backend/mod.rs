@@ -50,7 +50,7 @@ pub(crate) struct OutputPass<'a> {
     /// The reactions are written (before the output is refreshed).
     pub(crate) reactions: bool,
     /// A refreshed output's largest measure over its divergence bound (0 without bounds).
-    pub(crate) ratio: &'a dyn Fn(&JointOutput) -> Real,
+    pub(crate) ratio: &'a (dyn Fn(&JointOutput) -> Real + Sync),
 }
 
 /// What only some backends do.

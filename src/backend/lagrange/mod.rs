@@ -611,6 +611,29 @@ fn write_reaction(
     e.set_reaction(bodies, f, tau);
 }
 
+/// Joint `ji`'s reaction (if `out` asks for it; block `k` of `island`, if it has rows) and
+/// output after its island's step, as the world's passes write them; returns the output's
+/// divergence ratio. `spring`: the joint has a spring or damper ([`Roles::springs`]).
+fn refresh_joint(
+    e: &mut crate::joint_set::JointEntry,
+    ji: usize,
+    fx: &effects::Effects,
+    island: Option<(&Island, usize)>,
+    spring: bool,
+    bodies: &crate::math::rapier::dynamics::RigidBodySet,
+    out: &OutputPass,
+) -> Real {
+    if out.reactions {
+        write_reaction(e, ji, fx, island, false, bodies);
+    }
+    let velocity = |b: RigidBodyHandle| {
+        let rb = &bodies[b];
+        (rb.linvel(), rb.angvel())
+    };
+    e.refresh_output(bodies, velocity, spring);
+    (out.ratio)(&e.state.output)
+}
+
 fn kkt_err(e: crate::solver::kkt::KktError, time: Real) -> Error {
     Error::Diverged {
         time,
@@ -807,10 +830,6 @@ impl Island {
         refreshed: &mut [Option<Real>],
     ) {
         let bodies = &sets.physics.bodies;
-        let velocity = |b: RigidBodyHandle| {
-            let rb = &bodies[b];
-            (rb.linvel(), rb.angvel())
-        };
         // `blocks` and `roles.springs` are ascending, as `members` is: merged with the loop.
         let mut blocks = self.blocks.iter().enumerate().peekable();
         let mut springs = roles.springs.iter().peekable();
@@ -821,11 +840,7 @@ impl Island {
             let Some(e) = sets.joints.get_mut(ji) else {
                 continue;
             };
-            if out.reactions {
-                write_reaction(e, ji, fx, block, false, bodies);
-            }
-            e.refresh_output(bodies, velocity, spring);
-            refreshed[ji] = Some((out.ratio)(&e.state.output));
+            refreshed[ji] = Some(refresh_joint(e, ji, fx, block, spring, bodies, out));
         }
     }
 

@@ -16,6 +16,8 @@ use super::{
     BodyState, Island, IslandStart, LagrangeBackend, MAX_VELOCITY_REFINEMENTS, free_rotor,
     gyroscopic_kick, kkt_err, projection_tolerance, rotation_scale, velocity_tolerance,
 };
+#[cfg(feature = "parallel")]
+use {super::refresh_joint, crate::joint_set::Roles};
 
 /// The stage sizes of the fourth-order composition, in units of the substep: Suzuki's
 /// fractal `p, p, 1 - 4p, p, p` with `p = 1 / (4 - 4^(1/3))` (Suzuki 1990; Hairer, Lubich,
@@ -109,7 +111,6 @@ impl LagrangeBackend {
             if done.next().transpose()? == Some(true) {
                 island.write_back(sets.physics, sets.time)?;
                 island.sleep_check(&mut sets.physics.bodies, h * n as Real);
-                island.refresh_outputs(&self.fx, sets, start.roles, out, &mut self.refreshed);
                 continue;
             }
             #[cfg(not(feature = "parallel"))]
@@ -118,7 +119,41 @@ impl LagrangeBackend {
             island.sleep_check(&mut sets.physics.bodies, h * n as Real);
             island.refresh_outputs(&self.fx, sets, start.roles, out, &mut self.refreshed);
         }
+        #[cfg(feature = "parallel")]
+        self.refresh_plain_outputs(sets, start.roles, out);
         Ok(())
+    }
+
+    /// With the `parallel` feature: the reactions and outputs of the plain islands' joints
+    /// (stepped on the pool, written back in island order) on the pool, joint by joint, as
+    /// [`Island::refresh_outputs`] writes them.
+    #[cfg(feature = "parallel")]
+    fn refresh_plain_outputs(&mut self, sets: &mut Sets, roles: &Roles, out: &OutputPass) {
+        use rayon::prelude::*;
+        let (islands, fx, block_of, island_of) =
+            (&self.islands, &self.fx, &self.block_of, &self.island_of);
+        let bodies = &sets.physics.bodies;
+        sets.joints
+            .slots_mut()
+            .par_iter_mut()
+            .zip(self.refreshed.par_iter_mut())
+            .enumerate()
+            .with_min_len(64)
+            .for_each(|(ji, (e, r))| {
+                let (Some(e), Some(i)) = (e, island_of.get(ji).copied().flatten()) else {
+                    return;
+                };
+                let island = &islands[i];
+                if !island.plain {
+                    return;
+                }
+                let block = match block_of.get(ji) {
+                    Some(&Some((_, k))) => Some((island, k)),
+                    _ => None,
+                };
+                let spring = roles.springs.binary_search(&ji).is_ok();
+                *r = Some(refresh_joint(e, ji, fx, block, spring, bodies, out));
+            });
     }
 }
 
