@@ -3,9 +3,10 @@
 //! alone in the world or one of 12 arms, one of which has a stop on its first joint (an island
 //! with behaviour, stepped by the general path beside the plain ones). Exact equality is the
 //! right tolerance: each island has its own solver state and reads nothing of the others, so any
-//! difference is a leak between islands. With the `parallel` feature (CI runs it with the f32
-//! set) the plain islands step on rayon's pool, so this also checks that the parallel step is
-//! the serial one.
+//! difference is a leak between islands. The arm's joints' outputs (reactions included) are
+//! compared the same way. With the `parallel` feature (CI runs it with the f32 set) the plain
+//! islands step on rayon's pool and their joints' outputs are written there, so this also
+//! checks that the parallel step is the serial one.
 
 use rapier3d_mpc184::prelude::*;
 use rapier3d_mpc184::studies::benchmarks::{self, MIXED_ARM_BODIES};
@@ -46,6 +47,16 @@ fn an_arm_moves_the_same_alone_and_among_others() {
         assert_eq!(ra.position(), rb.position());
         assert_eq!(ra.linvel(), rb.linvel());
         assert_eq!(ra.angvel(), rb.angvel());
+    }
+    // Its joints' outputs too, reactions included: each island writes its own joints' (the
+    // serial step as each island ends, the parallel one joint by joint on the pool).
+    for (a, b) in alone.joints.iter().zip(&many.joints) {
+        let (oa, ob) = (
+            alone.world.output(*a).unwrap(),
+            many.world.output(*b).unwrap(),
+        );
+        assert_eq!(oa, ob, "joint {a:?}");
+        assert!(oa.force.length() > 0.0, "joint {a:?} carries no reaction");
     }
     // The arm with the stop moved differently (the stop acted).
     let (first, stopped) = (many.bodies[0], many.bodies[k]);

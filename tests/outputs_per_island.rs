@@ -18,10 +18,17 @@
 //! output field (measures, rates, reaction force and moment, gaps, element forces, spring
 //! energy) within 5.4e-9 and 6.8e-10. The bound, 1e-7 in SI units, is 20 times that; what the
 //! check is for fails it by far: a reaction left out is the arm's weight, about 2 to 5 N; the
-//! spring's element force (up to 3.2 N) or its energy (up to 0.16 J) missing; a joint given
-//! another block's rows. That the outputs are not trivially equal is checked too: the arms'
-//! top joints carry at least 1 N, the spring at least 0.1 N.
-#![cfg(feature = "f64")]
+//! spring's element force (up to 3.2 N) or its energy (up to 0.16 J) missing (a wrong spring
+//! flag: 0.16); a joint given another block's rows. That the outputs are not trivially equal
+//! is checked too: the arms' top joints carry at least 1 N, the spring at least 0.1 N.
+//!
+//! With `f32` (CI runs that set with the `parallel` feature, whose plain islands' outputs are
+//! written joint by joint on rayon's pool): bodies 4.8e-5 and 6.6e-5 apart, outputs within
+//! 1.3e-4 and 7.8e-5, first order and RATTLE; the bound is 1e-2 there, still far below what it
+//! is for (the plain islands' joints given block 0's rows fail it by 3.9).
+
+/// See the header: 1e-7 in f64, 1e-2 in f32.
+const BOUND: Real = if size_of::<Real>() == 8 { 1e-7 } else { 1e-2 };
 
 use rapier3d_mpc184::math::rapier::prelude::{
     ColliderBuilder, MassProperties, RigidBodyBuilder, RigidBodyHandle,
@@ -117,8 +124,8 @@ fn outputs_written_per_island_agree_with_the_worlds_passes() {
             "{integrator:?}: bodies {body_diff:.3e} apart, outputs {out_diff:.3e}; smallest \
              top-joint reaction {top_force:.3} N, largest spring force {element:.3} N"
         );
-        assert!(body_diff < 1e-7, "{integrator:?}: {body_diff}");
-        assert!(out_diff < 1e-7, "{integrator:?}: {out_diff}");
+        assert!(body_diff < BOUND, "{integrator:?}: {body_diff}");
+        assert!(out_diff < BOUND, "{integrator:?}: {out_diff}");
         assert!(top_force > 1.0, "{top_force}");
         assert!(element > 0.1, "{element}");
     }
