@@ -95,7 +95,9 @@ impl LagrangeBackend {
             let results: Vec<Result<bool, Error>> = self
                 .islands
                 .par_iter_mut()
-                .with_min_len(4)
+                // One island per task at least: with 4, 10 to 50 islands stepped 6 to 10 %
+                // slower in the median (paired probe runs; load imbalance).
+                .with_min_len(1)
                 .map(|island| {
                     island.start_step(shared, start.roles, h, start.rebuilt, true)?;
                     if island.plain {
