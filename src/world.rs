@@ -884,23 +884,19 @@ impl Mpc184World {
 
     /// Refreshes every joint's output from the bodies now.
     fn refresh_outputs(&mut self) {
-        self.refresh_outputs_within(None);
+        self.refresh_outputs_by(None, false);
     }
 
-    /// [`Mpc184World::refresh_outputs`], checking each output against `bounds` as it is
-    /// written (one pass over the joints): the joint furthest past a bound, if any.
-    fn refresh_outputs_within(&mut self, bounds: Option<&Bounds>) -> Option<usize> {
-        self.refresh_outputs_by(bounds, false)
-    }
-
-    /// [`Mpc184World::refresh_outputs_within`] after a step: the joints whose outputs the
+    /// The outputs after a step, each checked against `bounds` as it is written (one pass
+    /// over the joints): the joint furthest past a bound, if any. The joints whose outputs the
     /// backend refreshed during the step ([`JointBackend::refreshed`]) keep them, with the
     /// ratio it took.
     fn refresh_step_outputs(&mut self, bounds: &Bounds) -> Option<usize> {
         self.refresh_outputs_by(Some(bounds), true)
     }
 
-    /// See [`Mpc184World::refresh_outputs_within`] and [`Mpc184World::refresh_step_outputs`].
+    /// See [`Mpc184World::refresh_outputs`] and [`Mpc184World::refresh_step_outputs`]
+    /// (`after_step`: the latter).
     fn refresh_outputs_by(&mut self, bounds: Option<&Bounds>, after_step: bool) -> Option<usize> {
         let roles = self.core.joints.roles();
         // `roles.springs` is in joint order: merged with the loop.

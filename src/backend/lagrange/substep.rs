@@ -12,12 +12,12 @@ use crate::output::EnergyLedger;
 
 use super::super::{OutputPass, Sets};
 use super::effects::Effects;
+#[cfg(feature = "parallel")]
+use super::refresh_joint;
 use super::{
     BodyState, Island, IslandStart, LagrangeBackend, MAX_VELOCITY_REFINEMENTS, free_rotor,
     gyroscopic_kick, kkt_err, projection_tolerance, rotation_scale, velocity_tolerance,
 };
-#[cfg(feature = "parallel")]
-use {super::refresh_joint, crate::joint_set::Roles};
 
 /// The stage sizes of the fourth-order composition, in units of the substep: Suzuki's
 /// fractal `p, p, 1 - 4p, p, p` with `p = 1 / (4 - 4^(1/3))` (Suzuki 1990; Hairer, Lubich,
@@ -122,7 +122,7 @@ impl LagrangeBackend {
             island.refresh_outputs(&self.fx, sets, start.roles, out, &mut self.refreshed);
         }
         #[cfg(feature = "parallel")]
-        self.refresh_plain_outputs(sets, start.roles, out);
+        self.refresh_plain_outputs(sets, out);
         Ok(())
     }
 
@@ -130,7 +130,7 @@ impl LagrangeBackend {
     /// (stepped on the pool, written back in island order) on the pool, joint by joint, as
     /// [`Island::refresh_outputs`] writes them.
     #[cfg(feature = "parallel")]
-    fn refresh_plain_outputs(&mut self, sets: &mut Sets, roles: &Roles, out: &OutputPass) {
+    fn refresh_plain_outputs(&mut self, sets: &mut Sets, out: &OutputPass) {
         use rayon::prelude::*;
         let (islands, fx, block_of, island_of) =
             (&self.islands, &self.fx, &self.block_of, &self.island_of);
@@ -153,8 +153,9 @@ impl LagrangeBackend {
                     Some(&Some((_, k))) => Some((island, k)),
                     _ => None,
                 };
-                let spring = roles.springs.binary_search(&ji).is_ok();
-                *r = Some(refresh_joint(e, ji, fx, block, spring, bodies, out));
+                // A spring or damper (`Roles::springs`) gives its joint `Roles::EFFECTS`: its
+                // island is never plain.
+                *r = Some(refresh_joint(e, ji, fx, block, false, bodies, out));
             });
     }
 }
