@@ -139,6 +139,23 @@ pub const PROJECTION_TOLERANCE: Real = 1e-10;
 /// tolerance.
 const MU_HISTORY: usize = 4;
 
+/// The stages of the fourth-order composition (see `substep::SUZUKI`).
+const STAGES: usize = 5;
+
+/// One stage's position multipliers at the substeps before, newest first: the first `depth`
+/// held, all at the composition's substep `h`.
+#[derive(Clone, Debug, Default)]
+#[cfg_attr(
+    feature = "serde-snapshot",
+    derive(serde::Serialize, serde::Deserialize)
+)]
+struct StageHistory {
+    mu: [Vec<Real>; 3],
+    depth: usize,
+    /// The composition's substep (s) they were taken at.
+    h: Real,
+}
+
 /// The warm start extrapolates one order higher while the island's largest backward difference
 /// of the multipliers, each row's weighed by the row's effective inverse mass, is below this
 /// fraction of the one before (see `Island::extrapolation_order`). A row's difference of order
@@ -442,6 +459,17 @@ pub(crate) struct Island {
     /// hold a smooth run of them), the polynomial the warm start extrapolates.
     mu_history: [Vec<Real>; MU_HISTORY],
     mu_depth: usize,
+    /// A composed island's position multipliers per stage of the composition, newest first
+    /// (`[..depth]` held), from the substeps before: the warm start extrapolates each stage
+    /// from its own (see `Island::extrapolate_multipliers`).
+    stage_mu: [StageHistory; STAGES],
+    /// The composition's stage the island projects now and its substep (s; set by each stage).
+    stage: (usize, Real),
+    /// The composition's substep (s) of the stage projected last.
+    projected: Real,
+    /// The quadratic the last stage's warm start took from its own history (empty if it took
+    /// none).
+    stage_pred: Vec<Real>,
     /// The joints whose warm start extrapolates their force in frame 2's axes (see
     /// `Island::extrapolate_multipliers`), every joint of the island or none (empty): `None`
     /// until the island's first projection lists them. While some are listed, the projection

@@ -25,7 +25,7 @@ use super::{
 /// pendulum (`tests/composition4_order.rs`), its error is 1/72 to 1/76 of the triple jump's
 /// (`a, 1 - 2a, a` with `a = 1 / (2 - 2^(1/3))`, whose middle stage is -1.7 h against -0.66 h
 /// here) at the same substep, about 1/10 at the same cost (the triple jump has 3 stages).
-const SUZUKI: [Real; 5] = {
+pub(super) const SUZUKI: [Real; super::STAGES] = {
     // 4^(1/3) to round-off (a `const` cannot call `cbrt`).
     let c = 1.587_401_051_968_199_5_f64 as Real;
     let p = 1.0 / (4.0 - c);
@@ -220,6 +220,7 @@ impl Island {
         for k in 0..n {
             for (stage, &gamma) in stages.iter().enumerate() {
                 let hs = gamma * h;
+                self.stage = (stage, h);
                 self.kick_momenta(hs);
                 self.solve_velocity(time)?;
                 self.drift(hs);
