@@ -46,6 +46,9 @@ impl Island {
             *s = [0.0; 6];
         }
         self.warm_start(joints, bodies, h);
+        // A stage's own extrapolation (see `Island::extrapolate_multipliers`) takes at least
+        // one chord step.
+        let predicted = !self.stage_pred.is_empty();
         // Chord iterations on the start-of-substep factorisation. Should one increase the
         // residual (near a singular pose, where the start-of-substep directions lose rank), it is
         // undone and the projection continues as damped Gauss-Newton: refactorised at the current
@@ -64,10 +67,7 @@ impl Island {
                 self.eval_rows(joints, bodies, Eval::Geometry);
             }
             residual = self.projection_targets(h);
-            // A stage's own extrapolation (see `Island::extrapolate_multipliers`) takes at
-            // least one chord step.
-            let predicted = it == 0 && !self.stage_pred.is_empty();
-            if (residual <= tol && !predicted) || it == MAX_PROJECTION_ITERATIONS {
+            if (residual <= tol && (it > 0 || !predicted)) || it == MAX_PROJECTION_ITERATIONS {
                 iterations = it;
                 break;
             }
@@ -410,23 +410,40 @@ impl Island {
     ///
     /// A composed island's stages differ in size (and their multipliers with it, as the square
     /// of the stage), so from one stage to the next the sequence is not smooth. On a tree, each
-    /// stage extrapolates from its own multipliers at the substeps before ([`Island::record_stage`]):
-    /// the quadratic through its last three, where their differences fall, plus the deviation
-    /// of the stage just projected from its own quadratic (scaled by the squared ratio of the
-    /// stage sizes: the newest multipliers carry what the stage histories have not seen yet).
-    /// Elsewhere (no smooth history, a new substep size, a loop) it extrapolates linearly from
-    /// the stage before. Such a warm start takes one chord step at least: it often met the
-    /// tolerance by itself, and stopping there left a residual of up to the tolerance with the
-    /// same sign from step to step (the conical pendulum at 1/480 s x 4 over 10 s: 6.0e-11 m
-    /// and 3.5e-11 J off; with the chord step 5.7e-13 m and 3.5e-14 J, against 1.0e-12 m and
-    /// 3.9e-13 J with the stage-to-stage extrapolation). Measured (fourth order, 1/60 s, callgrind instructions per step and
-    /// six interleaved timed runs): the mixed scene of 20 arms -21 % and -14 %, the 10- and
-    /// 100-link chains at 1:1 -14 % and -8 % (timed -13 % and -11 %), the pendulum -8 %; the
-    /// 1:1000 chain of 100 links +1.1 % at 8 substeps and +4.9 % at 1/30 s x 8 (timed -4 % at
-    /// 1/60 s), where its light beads ring at some 5e3 rad/s, faster than a stage. Not on loops:
-    /// there the warm start moves where a projection near a singular pose lands (its chord
-    /// iteration stops early or falls back to Gauss-Newton), and the slider-crank of
-    /// `tests/adaptive_divergence.rs` ended 2.2e-2 m off instead of 3.2e-4 m.
+    /// stage extrapolates from its own multipliers at the substeps before
+    /// ([`Island::record_stage`]): the quadratic through its last three, where their
+    /// differences fall, plus the deviation of the stage just projected from its own quadratic
+    /// (scaled by the squared ratio of the stage sizes: the newest multipliers carry what the
+    /// stage histories have not seen yet). Elsewhere (no smooth history, a new substep size, a
+    /// loop) it extrapolates linearly from the stage before. Measured (fourth order, 1/60 s,
+    /// callgrind instructions per step and six interleaved timed runs): the mixed scene of 20
+    /// arms -21 % and -14 %, the 10- and 100-link chains at 1:1 -14 % and -8 % (timed -13 %
+    /// and -11 %), the pendulum -8 %; the 1:1000 chain of 100 links +1.1 % at 8 substeps and
+    /// +4.9 % at 1/30 s x 8 (timed -4 % at 1/60 s), where its light beads ring at some 5e3
+    /// rad/s, faster than a stage. Not on loops: there the warm start moves where a projection
+    /// near a singular pose lands (its chord iteration stops early or falls back to
+    /// Gauss-Newton), and the slider-crank of `tests/adaptive_divergence.rs` ended 2.2e-2 m off
+    /// instead of 3.2e-4 m.
+    ///
+    /// Such a warm start takes one chord step at least: it often met the tolerance by itself,
+    /// and stopping there left a residual of up to the tolerance with the same sign from stage
+    /// to stage. Measured on the conical pendulum (spherical joint: no warm axes), fourth
+    /// order over 10 s, error / energy drift:
+    ///
+    /// | | 1/480 s x 4 | 1/240 s x 4 |
+    /// |---|---|---|
+    /// | stage to stage (before) | 1.0e-12 m / -3.9e-13 J | 1.3e-11 m / -8.4e-13 J |
+    /// | own stage, stopped at the tolerance | 6.0e-11 m / 3.5e-11 J | |
+    /// | own stage, one chord step at least (now) | 5.7e-13 m / -3.5e-14 J | 1.2e-10 m / -2.0e-10 J |
+    /// | the same, converged to a tenth of the tolerance | 5.7e-13 m / -3.5e-14 J | 1.4e-11 m / -2.5e-11 J |
+    ///
+    /// At 1/240 s x 4 the one chord step leaves 1e-11 to 4e-11 m of the 1e-10 m tolerance,
+    /// again with one sign. Converging to a tenth of it (as the warm axes do,
+    /// [`WARM_AXES_TOLERANCE`](super::WARM_AXES_TOLERANCE)) mends that for 1.00 -> 1.01 chord
+    /// steps per stage on the mixed scene of 20 arms (1/60 s x 4), but cost the 1:1000 chain
+    /// of 100 links at 1/30 s x 8 +9.9 % instructions (its light beads ring, and one chord
+    /// step leaves more there): not taken; the drift is 2e-11 of the pendulum's m g L over
+    /// 10 s.
     ///
     /// An island with a loop also starts again while it has bodies given added inertia (the
     /// 1:1000 chain needed 5 iterations instead of 2 when trees took the loops'
