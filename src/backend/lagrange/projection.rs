@@ -481,7 +481,13 @@ impl Island {
         if !smooth || held.iter().any(|h| h.len() != n) {
             self.mu_depth = 0;
         }
-        let by_stage = self.record_stage(n);
+        if self.composed {
+            if self.record_stage(n) {
+                self.extrapolate_stage(n);
+                return;
+            }
+            self.stage_pred.clear();
+        }
         // A composed island's stages differ in size (and their multipliers with it): from one
         // stage to the next it extrapolates linearly, where its stage has no smooth history.
         let depth = if self.composed {
@@ -494,41 +500,47 @@ impl Island {
         self.mu_history.rotate_right(1);
         let [front, a, b, c] = &mut self.mu_history;
         front.resize(n, 0.0);
-        if by_stage {
-            // The quadratic through the stage's own history, plus the last stage's deviation
-            // from its own quadratic (the newest multipliers; scaled to this stage's size, as
-            // a position multiplier goes with the square of the step).
-            let carry = self.stage_pred.len() == n;
-            self.stage_pred.resize(n, 0.0);
-            let (j, _) = self.stage;
-            let scale = (SUZUKI[j] / SUZUKI[(j + STAGES - 1) % STAGES]).powi(2);
-            let [x, y, z] = &self.stage_mu[j].mu;
-            for r in 0..n {
-                let m = self.mu[r];
-                let quadratic = 3.0 * x[r] - 3.0 * y[r] + z[r];
-                let deviation = if carry {
-                    scale * (m - self.stage_pred[r])
-                } else {
-                    0.0
-                };
-                self.stage_pred[r] = quadratic;
-                self.mu[r] = quadratic + deviation;
-                front[r] = m;
-            }
-        } else {
-            self.stage_pred.clear();
-            for r in 0..n {
-                let m = self.mu[r];
-                // Newton's backward differences through the last `depth + 1` substeps.
-                self.mu[r] = match depth {
-                    0 => m,
-                    1 => 2.0 * m - a[r],
-                    2 => 3.0 * m - 3.0 * a[r] + b[r],
-                    3 => 4.0 * m - 6.0 * a[r] + 4.0 * b[r] - c[r],
-                    _ => 5.0 * m - 10.0 * a[r] + 10.0 * b[r] - 5.0 * c[r] + front[r],
-                };
-                front[r] = m;
-            }
+        for r in 0..n {
+            let m = self.mu[r];
+            // Newton's backward differences through the last `depth + 1` substeps.
+            self.mu[r] = match depth {
+                0 => m,
+                1 => 2.0 * m - a[r],
+                2 => 3.0 * m - 3.0 * a[r] + b[r],
+                3 => 4.0 * m - 6.0 * a[r] + 4.0 * b[r] - c[r],
+                _ => 5.0 * m - 10.0 * a[r] + 10.0 * b[r] - 5.0 * c[r] + front[r],
+            };
+            front[r] = m;
+        }
+        self.mu_depth = (self.mu_depth + 1).min(MU_HISTORY);
+    }
+
+    /// A composed stage's warm start from its own history (see
+    /// [`Island::extrapolate_multipliers`]): the quadratic through the stage's last three
+    /// substeps, plus the last stage's deviation from its own quadratic (the newest
+    /// multipliers; scaled to this stage's size, as a position multiplier goes with the square
+    /// of the step). The history of the last substeps moves down one place as in
+    /// [`Island::extrapolate_multipliers`].
+    fn extrapolate_stage(&mut self, n: usize) {
+        self.mu_history.rotate_right(1);
+        let front = &mut self.mu_history[0];
+        front.resize(n, 0.0);
+        let carry = self.stage_pred.len() == n;
+        self.stage_pred.resize(n, 0.0);
+        let (j, _) = self.stage;
+        let scale = (SUZUKI[j] / SUZUKI[(j + STAGES - 1) % STAGES]).powi(2);
+        let [x, y, z] = &self.stage_mu[j].mu;
+        for r in 0..n {
+            let m = self.mu[r];
+            let quadratic = 3.0 * x[r] - 3.0 * y[r] + z[r];
+            let deviation = if carry {
+                scale * (m - self.stage_pred[r])
+            } else {
+                0.0
+            };
+            self.stage_pred[r] = quadratic;
+            self.mu[r] = quadratic + deviation;
+            front[r] = m;
         }
         self.mu_depth = (self.mu_depth + 1).min(MU_HISTORY);
     }
@@ -538,14 +550,13 @@ impl Island {
     /// returns whether the stage projected now has three substeps of history at the same
     /// substep whose second backward difference is below the first (weighed as in
     /// [`Island::extrapolation_order`]): the quadratic through them is then its warm start.
-    /// Any other projection (RATTLE, a loop, or a warm start that starts again) empties the
-    /// histories, and a substep of another size (the adaptive control's runs) a stage's own.
+    /// A loop or a warm start that starts again empties the histories (as a step the island
+    /// takes with RATTLE does, [`Island::forget_stages`]), and a substep of another size (the
+    /// adaptive control's runs) a stage's own.
     fn record_stage(&mut self, n: usize) -> bool {
         let tree = self.regularisation < REGULARISATION_LOOPS;
-        if !self.composed || !tree || self.mu_depth == 0 {
-            for s in &mut self.stage_mu {
-                s.depth = 0;
-            }
+        if !tree || self.mu_depth == 0 {
+            self.forget_stages();
             return false;
         }
         let (j, substep) = self.stage;
@@ -570,6 +581,15 @@ impl Island {
             d2 = d2.max(w * (a[r] - 2.0 * b[r] + c[r]).abs());
         }
         d2 < SMOOTH * d1
+    }
+
+    /// Empties the composition's stage histories (see [`Island::record_stage`]) and the last
+    /// stage's own extrapolation.
+    pub(super) fn forget_stages(&mut self) {
+        for s in &mut self.stage_mu {
+            s.depth = 0;
+        }
+        self.stage_pred.clear();
     }
 
     /// The order of the warm start's extrapolation: linear where the history allows, and one

@@ -306,12 +306,16 @@ impl Island {
         if asked && !self.composed {
             self.take_rattle();
         }
+        if !self.composed {
+            self.forget_stages();
+        }
     }
 
     /// The island takes RATTLE where the composition was asked for: its second-order bodies
     /// are counted in the report.
     pub(super) fn take_rattle(&mut self) {
         self.composed = false;
+        self.forget_stages();
         self.report.second_order_bodies = self.second.iter().filter(|x| **x).count();
     }
 
