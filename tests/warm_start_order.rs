@@ -19,27 +19,13 @@
 //! m relative on coordinates of 1 m.
 #![cfg(feature = "f64")]
 
+mod common;
+
 use rapier3d_mpc184::prelude::*;
-use rapier3d_mpc184::studies::benchmarks;
 
 #[test]
 fn the_falling_arm_projects_in_one_chord_step() {
-    let settings = WorldSettings {
-        dt: 1.0 / 60.0,
-        substeps: 4,
-        backend: Backend::Lagrange,
-        ..Default::default()
-    };
-    let mut b = benchmarks::mixed(settings, 1).unwrap();
-    let (mut sum, mut gap) = (0usize, 0.0 as Real);
-    for k in 0..60 {
-        b.world.step().unwrap();
-        gap = gap.max(b.max_gap().unwrap());
-        if (4..24).contains(&k) {
-            sum += b.world.lagrange_diagnostics().projection_iterations;
-        }
-    }
-    let steps = sum as f64 / 20.0;
+    let (steps, gap) = common::falling_arm_chord_steps(Integrator::SymplecticEuler);
     println!("mixed, one arm: {steps:.2} chord steps per projection in the fall, gap {gap:.2e} m");
     assert!(steps <= 1.5, "{steps:.2} chord steps");
     assert!(gap <= 1e-10 + 1e-13, "gap {gap:.2e} m");

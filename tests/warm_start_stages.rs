@@ -18,28 +18,13 @@
 //! round-off allowance as `tests/warm_start_order.rs`.
 #![cfg(feature = "f64")]
 
+mod common;
+
 use rapier3d_mpc184::prelude::*;
-use rapier3d_mpc184::studies::benchmarks;
 
 #[test]
 fn each_composed_stage_projects_in_one_chord_step() {
-    let settings = WorldSettings {
-        dt: 1.0 / 60.0,
-        substeps: 4,
-        backend: Backend::Lagrange,
-        integrator: Integrator::Composition4,
-        ..Default::default()
-    };
-    let mut b = benchmarks::mixed(settings, 1).unwrap();
-    let (mut sum, mut gap) = (0usize, 0.0 as Real);
-    for k in 0..60 {
-        b.world.step().unwrap();
-        gap = gap.max(b.max_gap().unwrap());
-        if (4..24).contains(&k) {
-            sum += b.world.lagrange_diagnostics().projection_iterations;
-        }
-    }
-    let steps = sum as f64 / 20.0;
+    let (steps, gap) = common::falling_arm_chord_steps(Integrator::Composition4);
     println!(
         "mixed, one arm, fourth order: {steps:.2} chord steps per projection in the fall, gap \
          {gap:.2e} m"

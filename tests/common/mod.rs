@@ -334,3 +334,29 @@ pub fn largest_apart(a: &[Vector], b: &[Vector]) -> Real {
         .map(|(p, q)| (*p - *q).length())
         .fold(0.0, Real::max)
 }
+
+/// The mixed benchmark scene with one arm, released from rest, stepped at 1/60 s x 4 under
+/// `integrator` for 60 steps: the chord steps of each step's last projection
+/// (`LagrangeDiagnostics::projection_iterations`) per step over steps 4 to 23 (the arm
+/// falling), and the largest gap over the run.
+#[cfg(feature = "f64")]
+#[allow(dead_code, reason = "only the warm start's tests use it")]
+pub fn falling_arm_chord_steps(integrator: Integrator) -> (f64, Real) {
+    let settings = WorldSettings {
+        dt: 1.0 / 60.0,
+        substeps: 4,
+        backend: Backend::Lagrange,
+        integrator,
+        ..Default::default()
+    };
+    let mut b = rapier3d_mpc184::studies::benchmarks::mixed(settings, 1).unwrap();
+    let (mut sum, mut gap) = (0usize, 0.0 as Real);
+    for k in 0..60 {
+        b.world.step().unwrap();
+        gap = gap.max(b.max_gap().unwrap());
+        if (4..24).contains(&k) {
+            sum += b.world.lagrange_diagnostics().projection_iterations;
+        }
+    }
+    (sum as f64 / 20.0, gap)
+}

@@ -305,8 +305,7 @@ impl Island {
             && self.kpen.iter().all(|k| *k == 0.0);
         if asked && !self.composed {
             self.take_rattle();
-        }
-        if !self.composed {
+        } else if !self.composed {
             self.forget_stages();
         }
     }
