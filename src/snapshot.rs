@@ -39,8 +39,11 @@ use crate::error::Error;
 use crate::math::Real;
 
 const MAGIC: [u8; 8] = *b"MPC184WS";
-/// Bumped whenever the layout changes; older snapshots are refused with a clear error.
-const FORMAT: u32 = 2;
+/// Bumped whenever the layout changes; older snapshots are refused with a clear error. 3: the
+/// Lagrange islands' warm-start histories (the multipliers of the last substeps, since
+/// 2026-11-26, and of each stage of the fourth-order composition, since 2026-11-27), which
+/// format 2 did not hold.
+const FORMAT: u32 = 3;
 
 /// A world's complete state as bytes, from [`crate::Mpc184World::snapshot`]; store
 /// [`Snapshot::as_bytes`] anywhere and resume with [`crate::Mpc184World::from_snapshot`].
