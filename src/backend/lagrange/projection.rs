@@ -30,7 +30,7 @@ impl Island {
         time: Real,
     ) -> Result<(), Error> {
         let nominal = projection_tolerance();
-        let tol = if self.warm_axes.as_ref().is_some_and(|w| !w.is_empty()) {
+        let mut tol = if self.warm_axes.as_ref().is_some_and(|w| !w.is_empty()) {
             WARM_AXES_TOLERANCE * nominal
         } else {
             nominal
@@ -47,7 +47,8 @@ impl Island {
         }
         self.warm_start(joints, bodies, h);
         // A stage's own extrapolation (see `Island::extrapolate_multipliers`) takes at least
-        // one chord step.
+        // one chord step, and converges to the warm axes' tolerance where it starts within
+        // 1e3 times the tolerance.
         let predicted = !self.stage_pred.is_empty();
         // Chord iterations on the start-of-substep factorisation. Should one increase the
         // residual (near a singular pose, where the start-of-substep directions lose rank), it is
@@ -67,6 +68,9 @@ impl Island {
                 self.eval_rows(joints, bodies, Eval::Geometry);
             }
             residual = self.projection_targets(h);
+            if it == 0 && predicted && residual <= 1e3 * nominal {
+                tol = tol.min(WARM_AXES_TOLERANCE * nominal);
+            }
             if (residual <= tol && (it > 0 || !predicted)) || it == MAX_PROJECTION_ITERATIONS {
                 iterations = it;
                 break;
@@ -417,33 +421,33 @@ impl Island {
     /// stage histories have not seen yet). Elsewhere (no smooth history, a new substep size, a
     /// loop) it extrapolates linearly from the stage before. Measured (fourth order, 1/60 s,
     /// callgrind instructions per step and six interleaved timed runs): the mixed scene of 20
-    /// arms -21 % and -14 %, the 10- and 100-link chains at 1:1 -14 % and -8 % (timed -13 %
-    /// and -11 %), the pendulum -8 %; the 1:1000 chain of 100 links +1.1 % at 8 substeps and
-    /// +4.9 % at 1/30 s x 8 (timed -4 % at 1/60 s), where its light beads ring at some 5e3
-    /// rad/s, faster than a stage. Not on loops: there the warm start moves where a projection
-    /// near a singular pose lands (its chord iteration stops early or falls back to
+    /// arms -20 % (timed -11 to -15 %), the 10- and 100-link chains at 1:1 -14 % and -8 %
+    /// (timed -13 % and -11 %), the pendulum -8 %; the 1:1000 chain of 100 links +0.9 % at 8
+    /// substeps and +4.8 % at 1/30 s x 8 (timed -6 % at 1/60 s), where its light beads ring at
+    /// some 5e3 rad/s, faster than a stage. Not on loops: there the warm start moves where a
+    /// projection near a singular pose lands (its chord iteration stops early or falls back to
     /// Gauss-Newton), and the slider-crank of `tests/adaptive_divergence.rs` ended 2.2e-2 m off
     /// instead of 3.2e-4 m.
     ///
-    /// Such a warm start takes one chord step at least: it often met the tolerance by itself,
-    /// and stopping there left a residual of up to the tolerance with the same sign from stage
-    /// to stage. Measured on the conical pendulum (spherical joint: no warm axes), fourth
-    /// order over 10 s, error / energy drift:
+    /// Such a warm start takes one chord step at least, and where it leaves the rows within
+    /// 1e3 times the tolerance it converges to a tenth of it (as the warm axes do,
+    /// [`WARM_AXES_TOLERANCE`](super::WARM_AXES_TOLERANCE)). With its start this close, the
+    /// projection stopped within the tolerance after the warm start or one chord step, and the
+    /// residual it left had the same sign from stage to stage. Measured on the conical
+    /// pendulum (spherical joint: no warm axes), fourth order over 10 s, error / energy drift:
     ///
     /// | | 1/480 s x 4 | 1/240 s x 4 |
     /// |---|---|---|
     /// | stage to stage (before) | 1.0e-12 m / -3.9e-13 J | 1.3e-11 m / -8.4e-13 J |
     /// | own stage, stopped at the tolerance | 6.0e-11 m / 3.5e-11 J | |
-    /// | own stage, one chord step at least (now) | 5.7e-13 m / -3.5e-14 J | 1.2e-10 m / -2.0e-10 J |
-    /// | the same, converged to a tenth of the tolerance | 5.7e-13 m / -3.5e-14 J | 1.4e-11 m / -2.5e-11 J |
+    /// | own stage, one chord step at least | 5.7e-13 m / -3.5e-14 J | 1.2e-10 m / -2.0e-10 J |
+    /// | the same, a tenth of the tolerance where the start is close (now) | 5.7e-13 m / -3.5e-14 J | 1.4e-11 m / -2.5e-11 J |
     ///
-    /// At 1/240 s x 4 the one chord step leaves 1e-11 to 4e-11 m of the 1e-10 m tolerance,
-    /// again with one sign. Converging to a tenth of it (as the warm axes do,
-    /// [`WARM_AXES_TOLERANCE`](super::WARM_AXES_TOLERANCE)) mends that for 1.00 -> 1.01 chord
-    /// steps per stage on the mixed scene of 20 arms (1/60 s x 4), but cost the 1:1000 chain
-    /// of 100 links at 1/30 s x 8 +9.9 % instructions (its light beads ring, and one chord
-    /// step leaves more there): not taken; the drift is 2e-11 of the pendulum's m g L over
-    /// 10 s.
+    /// A tenth of the tolerance everywhere would cost the 1:1000 chain of 100 links at 1/30 s x
+    /// 8 +9.9 % instructions: its light beads ring, the warm start leaves some 2e-5 m there (the
+    /// beads turn far in a stage) and two chord steps land between the two tolerances. Where the
+    /// start is close only: the mixed scene of 20 arms (1/60 s x 4) +1.0 %, the chains and the
+    /// pendulum -0.2 to +0.03 %.
     ///
     /// An island with a loop also starts again while it has bodies given added inertia (the
     /// 1:1000 chain needed 5 iterations instead of 2 when trees took the loops'
