@@ -48,7 +48,7 @@ impl Island {
         self.warm_start(joints, bodies, h);
         // A stage's own extrapolation (see `Island::extrapolate_multipliers`) takes at least
         // one chord step, and converges to the warm axes' tolerance where it starts within
-        // 1e3 times the tolerance.
+        // `far` of the tolerance.
         let predicted = !self.stage_pred.is_empty();
         // Chord iterations on the start-of-substep factorisation. Should one increase the
         // residual (near a singular pose, where the start-of-substep directions lose rank), it is
@@ -68,7 +68,7 @@ impl Island {
                 self.eval_rows(joints, bodies, Eval::Geometry);
             }
             residual = self.projection_targets(h);
-            if it == 0 && predicted && residual <= 1e3 * nominal {
+            if it == 0 && predicted && residual <= far {
                 tol = tol.min(WARM_AXES_TOLERANCE * nominal);
             }
             if (residual <= tol && (it > 0 || !predicted)) || it == MAX_PROJECTION_ITERATIONS {
