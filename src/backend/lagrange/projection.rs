@@ -46,6 +46,9 @@ impl Island {
             *s = [0.0; 6];
         }
         self.warm_start(joints, bodies, h);
+        // The warm start evaluated the rows' values alone (see `Island::residual`): the
+        // Jacobian is evaluated with them only where no chord step follows.
+        let values_only = self.fresh_values;
         // A stage's own extrapolation (see `Island::extrapolate_multipliers`) takes at least
         // one chord step, and converges to the warm axes' tolerance where it starts within
         // `far` of the tolerance.
@@ -72,6 +75,9 @@ impl Island {
                 tol = tol.min(WARM_AXES_TOLERANCE * nominal);
             }
             if (residual <= tol && (it > 0 || !predicted)) || it == MAX_PROJECTION_ITERATIONS {
+                if it == 0 && values_only {
+                    self.eval_rows(joints, bodies, Eval::Geometry);
+                }
                 iterations = it;
                 break;
             }
@@ -637,9 +643,12 @@ impl Island {
         order
     }
 
-    /// Largest deviation of any row from its projection target at the current state.
+    /// Largest deviation of any row from its projection target at the current state, from the
+    /// rows' values alone: the chord step that mostly follows takes its directions from the
+    /// factorisation, and the Jacobian is needed only where the projection stops here (see
+    /// [`Island::project_positions`]).
     fn residual(&mut self, joints: &JointSet, bodies: &RigidBodySet, h: Real) -> Real {
-        self.eval_rows(joints, bodies, Eval::Geometry);
+        self.eval_rows(joints, bodies, Eval::Values);
         self.fresh_values = true;
         let mut residual: Real = 0.0;
         for r in 0..self.value.len() {
