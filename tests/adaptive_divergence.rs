@@ -3,20 +3,23 @@
 //!
 //! Scene: the IFToMM spatial slider-crank with a spherical rod-slider joint, its idle spin
 //! taken out and held (the chart study's variant), the fourth-order composition, dt 1/15 s.
-//! Fixed at one substep it blows up in the fifth step (measured: joint 1 turning at 393 rad/s
-//! at t = 0.27 s). Adaptive at 1e-2 m over 5 s (1e-2 x dt / 5 s per step), starting from one
-//! substep: before, the first run that diverged stopped the whole run (t = 0.47 s in the chart
-//! study); now it is taken again with twice the substeps, and `StepStats::last_cut_reason`
-//! says so. Measured: 5 s in 1097 substeps with 87 retries (8 steps last cut for a
-//! divergence), the slider within 8.6e-5 m of the run at 64 substeps per step (whose own error
-//! is about 1e-9 m: the composition's error at 1/960 s on this scene); asserted within the
-//! 1e-2 m asked for.
+//! Fixed at one substep it blows up in the fifth step (measured: joint 1 turning at 344 rad/s
+//! at t = 0.27 s). Adaptive at 1e-1 m over 5 s (1e-1 x dt / 5 s per step, step only),
+//! starting from one substep: before, the first run that diverged stopped the whole run (t =
+//! 0.47 s in the chart study); now it is taken again with twice the substeps, and
+//! `StepStats::last_cut_reason` says so. Measured: 5 s in 788 substeps with 47 retries (5
+//! steps last cut for a divergence), the slider within 9.1e-2 m of the run at 64 substeps per
+//! step (whose own error is about 1e-9 m: the composition's error at 1/960 s on this scene);
+//! asserted within three times the 1e-1 m asked for, the adaptive control's contract over the
+//! chart study (`docs/charts/summary.md`: achieved within 3x the request), since a step-only
+//! control lets the per-step errors add up over the run.
 //!
-//! (At dt 1/30 s the adaptive runs no longer diverge since a composed step that finds a body
-//! needing the added inertia is taken again with RATTLE, `Island::step_plain`: 1063
-//! substeps, no cut for a divergence, measured before the control coarsened by up to 8 in a
-//! step, `next_substeps`, which moved this test's run from 1121 substeps and 5 cuts to the
-//! above. The longer step keeps the cut exercised.)
+//! Why 1e-1 m: the control must be loose enough to try a step that diverges. At 1e-2 m it
+//! refines before any does since a composed step falls back to RATTLE when any positive
+//! stage, not the last one alone, finds a body needing the added inertia
+//! (`Island::step_plain`): 1081 substeps, 78 retries, no cut, the slider within 2.4e-5 m
+//! (before: 895 substeps, 67 retries, 8 cuts, 3.2e-4 m). At dt 1/30 s it refines before
+//! any divergence at 1e-2 m as well (1063 substeps, measured when the fallback first came in).
 #![cfg(feature = "f64")]
 
 use rapier3d_mpc184::prelude::*;
@@ -51,7 +54,7 @@ fn one_substep_fixed_diverges() {
 
 #[test]
 fn the_adaptive_control_cuts_the_diverging_runs() {
-    let requested = 1e-2;
+    let requested = 1e-1;
     let mut b = slider_crank(1);
     b.world
         .set_step_control(StepControl::Adaptive {
@@ -84,5 +87,5 @@ fn the_adaptive_control_cuts_the_diverging_runs() {
     // Measured: 5 steps whose last cut was a diverged run.
     assert!(divergence_cuts > 0, "no step was cut for a divergence");
     assert!(stats.rejected > 0);
-    assert!(worst <= requested, "{worst:.3e} m");
+    assert!(worst <= 3.0 * requested, "{worst:.3e} m");
 }

@@ -14,13 +14,14 @@
 //! the added inertia, which put energy into their fast modes, and later steps composed again
 //! where the estimate dipped. Measured before: the end bead 4.0e-3 m from the converged
 //! reference (`docs/charts/summary.md`), the energy off by 7.2e-3 of the scale (the potential
-//! drop, 62 J), where RATTLE at the same steps is 1.2e-4 m and 5.9e-5. Now a composed step whose
-//! last factorisation finds a body needing the added inertia is retaken with RATTLE from the
-//! step's start (`Island::step_plain`): 1.2e-4 m and 5.9e-5, as RATTLE.
+//! drop, 62 J), where RATTLE at the same steps is 1.2e-4 m and 5.9e-5. Now a composed step in
+//! which any positive stage's factorisation finds a body needing the added inertia is retaken
+//! with RATTLE from the step's start (`Island::step_plain`): 1.2e-4 m and 5.9e-5, as RATTLE.
 //!
-//! Bounds: the two runs' end beads within 1e-5 m of each other over the run (measured 1.3e-6 m;
-//! before: 4.0e-3 m), and the composition's energy error within 2e-4 of the scale (RATTLE's
-//! 5.9e-5 at this step with margin for the retaken first step; before: 7.2e-3).
+//! Bounds: the two runs' end beads within 1e-5 m of each other over the run (measured 2.4e-8 m;
+//! 1.4e-6 m while the retake read the last stage's estimate alone; before the retake: 4.0e-3
+//! m), and the composition's energy error within 2e-4 of the scale (RATTLE's 5.9e-5 at this
+//! step with margin for the retaken first step; before: 7.2e-3).
 #![cfg(feature = "f64")]
 
 mod common;

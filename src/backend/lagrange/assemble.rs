@@ -324,9 +324,12 @@ impl Island {
                 s.added = 0.0;
             }
         }
-        self.would_stiffen = stiffened > 0;
         if self.composed {
+            // Any positive stage of the step counts (see `Island::step_plain`).
+            self.would_stiffen |= stiffened > 0 && h > 0.0;
             stiffened = 0;
+        } else {
+            self.would_stiffen = stiffened > 0;
         }
         self.report.stiffened_bodies = stiffened;
         self.load = load;

@@ -506,8 +506,10 @@ pub(crate) struct Island {
     /// ([`free_rotor`]), with no gyroscopic term in their kicks. Set at each step's start.
     #[cfg_attr(feature = "serde-snapshot", serde(skip))]
     rotor: bool,
-    /// A composed substep found a body that the geometric-stiffness added inertia would have
-    /// stiffened: the island takes RATTLE from the next step on.
+    /// A composed step found, at a positive stage's factorisation, a body that the
+    /// geometric-stiffness added inertia would have stiffened: the step is taken again with
+    /// RATTLE, and so are the next ones until a RATTLE step's last factorisation finds none
+    /// (see `Island::step_plain`).
     would_stiffen: bool,
     /// The size of the last substep taken (s; a stage of the composition is `gamma h`): the
     /// reactions divide its impulses by it.

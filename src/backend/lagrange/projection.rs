@@ -93,12 +93,8 @@ impl Island {
                 previous = Real::INFINITY;
                 continue;
             }
-            // Not in a composed step (see `chord_too_slow`).
             newton = newton
-                || (!self.composed
-                    && it >= 2
-                    && residual > far
-                    && chord_too_slow(residual, previous, tol, it));
+                || (it >= 2 && residual > far && chord_too_slow(residual, previous, tol, it));
             if newton {
                 self.rows(joints, bodies, h, true);
                 self.factor(joints, bodies, h, time)?;
@@ -671,11 +667,10 @@ impl Island {
 /// iterations contracting by 0.7 to 0.96 where the beads turned far in the substep, and left
 /// gaps of up to 1.6e-5 m at the limit.
 ///
-/// A composed step keeps its chord iterations: whether it falls back to RATTLE
-/// ([`Island::step_plain`]) is read from its last factorisation's force estimate, which swings
-/// between 0.04 and 2.2 times the added inertia's threshold from stage to stage on that chain at
-/// 1/30 s x 4, and the handover there changed the way it fell on the first step
-/// (`tests/composition_fallback.rs`: the run ended 2.9e-3 m from RATTLE's instead of 1.4e-6 m).
+/// A composed step hands over too (it kept its chord iterations while its fallback to RATTLE
+/// read the last stage's force estimate alone, on which the handover had changed the first
+/// step's way: `tests/composition_fallback.rs` ended 2.9e-3 m from RATTLE's then; see
+/// [`Island::step_plain`]).
 fn chord_too_slow(residual: Real, previous: Real, tol: Real, it: usize) -> bool {
     let rate = residual / previous;
     let left = (MAX_PROJECTION_ITERATIONS - it) as Real;
