@@ -667,9 +667,9 @@ impl Island {
 /// iterations contracting by 0.7 to 0.96 where the beads turned far in the substep, and left
 /// gaps of up to 1.6e-5 m at the limit.
 ///
-/// A composed step hands over too (it kept its chord iterations while its fallback to RATTLE
-/// read the last stage's force estimate alone, on which the handover had changed the first
-/// step's way: `tests/composition_fallback.rs` ended 2.9e-3 m from RATTLE's then; see
+/// A composed step hands over too. It kept its chord iterations while its fallback to RATTLE
+/// read the last stage's force estimate alone: the handover then changed which way the first
+/// step fell (`tests/composition_fallback.rs` ended 2.9e-3 m from RATTLE's run; see
 /// [`Island::step_plain`]).
 fn chord_too_slow(residual: Real, previous: Real, tol: Real, it: usize) -> bool {
     let rate = residual / previous;
