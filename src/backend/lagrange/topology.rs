@@ -226,6 +226,8 @@ impl Island {
         self.written = vec![(Pose::IDENTITY, Vector::ZERO, Vector::ZERO); nb];
         self.rhs_j = vec![0.0; nr];
         self.impulse = vec![0.0; nr];
+        self.vp_carry = vec![0.0; nr];
+        self.free_h = 0.0;
     }
 
     /// Picks the integrator of each body for this step: the world's, except that an island
