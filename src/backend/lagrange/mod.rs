@@ -18,7 +18,8 @@
 //!    small rotary inertia, see `Island::project_velocities`). A plain island whose kicks are
 //!    linear in the velocities (first order, isotropic bodies) leaves the projection to the
 //!    next substep's velocity solve, which projects the same way, except in a step's last two
-//!    substeps (see `Island::plain_substeps`).
+//!    substeps (see `Island::plain_substeps`); with RATTLE, where the next substep drifts free
+//!    (below), and its position projection takes the velocities' component along the rows.
 //!
 //! Stage 2 is left out on tree islands that only joints act on (no behaviour, penalty row,
 //! kinematic body or contact; first order and RATTLE, not the composition): the bodies drift
@@ -27,7 +28,7 @@
 //! equation, `q_(n+1) = q_n + h v* + M~^-1 J_n^T mu` with `C(q_(n+1)) = 0`, whatever impulse
 //! the drift carried; on the rotations the drift's turn and the projection's compose, and the
 //! point moves by less than the projection's tolerance where the extrapolation holds (see
-//! `Island::free_drift`). It saves the velocity solve: 3.8 to 10.8 % of the instructions of
+//! `Island::free_drift`). It saves the velocity solve: 4.3 to 10.9 % of the instructions of
 //! the mixed scene, the pendulum and the chains of 100 and 1000 links (first order, 1/60 s x
 //! 4); an island whose extrapolation costs more chord steps than the solve saves (a 1:1000
 //! chain of 10 links) goes back to the velocity solve for a while.

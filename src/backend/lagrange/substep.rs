@@ -264,6 +264,9 @@ impl Island {
                     self.project_velocities(time, last)?;
                 } else {
                     self.vp_carry.fill(0.0);
+                    if self.second_any {
+                        self.half_kick(hs);
+                    }
                 }
                 self.last_h = hs;
             }
@@ -303,12 +306,15 @@ impl Island {
 
     /// The island's kicks are linear in the velocities, so a substep's velocity projection
     /// can be left to the next substep's velocity solve (see [`Island::plain_substeps`]):
-    /// first order, isotropic bodies (no gyroscopic term), no penalty row (its projection
-    /// target is its own rate, not a constraint) and no added inertia (it reads the substep's
-    /// impulses as the joint forces).
+    /// isotropic bodies (no gyroscopic term), no penalty row (its projection target is its own
+    /// rate, not a constraint) and no added inertia (it reads the substep's impulses as the
+    /// joint forces); first order, or RATTLE where the next substep drifts free (see
+    /// [`Island::free_drift`]): its position projection then takes the velocities' component
+    /// along the rows with the rest (`P(v)` and `v` drift to the same point), and the skipped
+    /// projection's second half kick still acts ([`Island::half_kick`]).
     fn merges_velocity_projection(&self) -> bool {
         !self.composed
-            && !self.second_any
+            && (!self.second_any || self.free_h > 0.0)
             && !self.penalty.iter().any(|&p| p)
             && self.st.iter().all(|s| s.added == 0.0 && s.isotropic())
     }
@@ -706,6 +712,19 @@ impl Island {
         }
         let e1 = self.island_energy(fx, sets);
         self.ledger.work += e1 - e0 - (self.ledger.work - self.ledger.dissipated);
+    }
+
+    /// RATTLE's second half kick (the forces at `q_(n+1)`) on the bodies' velocities, where
+    /// the velocity projection after it is left to the next substep (isotropic bodies: no
+    /// gyroscopic term).
+    fn half_kick(&mut self, h: Real) {
+        let hh = 0.5 * h;
+        for (s, &second) in self.st.iter_mut().zip(&self.second) {
+            if second {
+                s.linvel += s.force * (hh / s.mass);
+                s.angvel += s.inertia_inv * s.torque * hh;
+            }
+        }
     }
 
     /// Stage 4, first half: the momenta at `q_(n+1)` into `rhs_b`, with RATTLE's second half
