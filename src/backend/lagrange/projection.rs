@@ -47,9 +47,7 @@ impl Island {
         self.turn_warm_axes(true);
         self.extrapolate_multipliers();
         self.turn_warm_axes(false);
-        for (m, c) in self.mu.iter_mut().zip(&self.vp_carry) {
-            *m -= h * c;
-        }
+        self.carry_into_mu(-h);
         let Some(kkt) = self.kkt.as_ref() else { return };
         for (b, s) in self.backup.iter_mut().zip(&self.st) {
             *b = (s.pose, s.com);
@@ -59,6 +57,15 @@ impl Island {
         }
         jt_mu(kkt, &self.jac, &self.mu, &mut self.shift);
         self.shift_velocities(h, 1.0);
+    }
+
+    /// Adds `h` times the last velocity projection's impulse (`vp_carry`) to `mu`: the
+    /// history's form of a free drift's multipliers (see [`Island::predict_impulse`]), and
+    /// with `-h` back.
+    fn carry_into_mu(&mut self, h: Real) {
+        for (m, c) in self.mu.iter_mut().zip(&self.vp_carry) {
+            *m += h * c;
+        }
     }
 
     /// Adds `sign M~^-1 shift / h` to the velocities in `rhs_b` (the factorisation's mass, as
@@ -81,7 +88,7 @@ impl Island {
     /// the predicted impulse.
     fn check_predicted(&mut self, joints: &JointSet, bodies: &RigidBodySet, h: Real) {
         let after = self.residual(joints, bodies, h);
-        if after.is_finite() && after <= WARM_START_LIMIT || self.mu.iter().all(|m| *m == 0.0) {
+        if (after.is_finite() && after <= WARM_START_LIMIT) || self.mu.iter().all(|m| *m == 0.0) {
             return;
         }
         let Some(kkt) = self.kkt.as_ref() else { return };
@@ -183,10 +190,7 @@ impl Island {
         self.reg_scale = 1.0;
         if self.free_h > 0.0 {
             self.free_measure(iterations);
-            let h = self.free_h;
-            for (m, c) in self.mu.iter_mut().zip(&self.vp_carry) {
-                *m += h * c;
-            }
+            self.carry_into_mu(self.free_h);
         }
         self.report.projection_iterations = iterations;
         if newton || iterations == MAX_PROJECTION_ITERATIONS {

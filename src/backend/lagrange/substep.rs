@@ -308,10 +308,12 @@ impl Island {
     /// can be left to the next substep's velocity solve (see [`Island::plain_substeps`]):
     /// isotropic bodies (no gyroscopic term), no penalty row (its projection target is its own
     /// rate, not a constraint) and no added inertia (it reads the substep's impulses as the
-    /// joint forces); first order, or RATTLE where the next substep drifts free (see
-    /// [`Island::free_drift`]): its position projection then takes the velocities' component
-    /// along the rows with the rest (`P(v)` and `v` drift to the same point), and the skipped
-    /// projection's second half kick still acts ([`Island::half_kick`]).
+    /// joint forces); first order, or RATTLE where the island drifts free (see
+    /// [`Island::free_drift`]): the next substep's position projection then takes the
+    /// velocities' component along the rows with the rest (`P(v)` and `v` drift to the same
+    /// point), and the skipped projection's second half kick still acts
+    /// ([`Island::half_kick`]). (Should the next substep take the velocity solve instead, that
+    /// solve projects the same way: the kicks between are linear on isotropic bodies.)
     fn merges_velocity_projection(&self) -> bool {
         !self.composed
             && (!self.second_any || self.free_h > 0.0)
