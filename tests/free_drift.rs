@@ -27,6 +27,9 @@ use rapier3d_mpc184::math::rapier::prelude::ColliderBuilder;
 use rapier3d_mpc184::prelude::*;
 use rapier3d_mpc184::studies::benchmarks;
 
+mod common;
+use common::dynamic_bodies;
+
 /// The dynamic bodies' positions after 10 s, with sensor colliders on them or without.
 fn run(links: usize, integrator: Integrator, collider: bool) -> Vec<Vector> {
     let settings = WorldSettings {
@@ -41,14 +44,7 @@ fn run(links: usize, integrator: Integrator, collider: bool) -> Vec<Vector> {
         benchmarks::chain(settings, links, 0.1, 0.01, 1.0, 20f64.to_radians() as Real)
     }
     .unwrap();
-    let dynamic: Vec<_> = b
-        .world
-        .physics
-        .bodies
-        .iter()
-        .filter(|(_, rb)| rb.is_dynamic())
-        .map(|(h, _)| h)
-        .collect();
+    let dynamic = dynamic_bodies(&b.world);
     if collider {
         let w = &mut b.world.physics;
         for &h in &dynamic {

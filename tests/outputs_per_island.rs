@@ -14,9 +14,11 @@
 //! The two paths are not the same to the bit: the island's own drift and Rapier's differ in
 //! the last bits of the rotations (2e-26 on the first step), and the position projections then
 //! stop at different points within their tolerance (1e-10 m). Measured over the 60 steps: the
-//! bodies 9.9e-14 (first order) and 2.7e-14 (RATTLE) apart in position and velocity, every
-//! output field (measures, rates, reaction force and moment, gaps, element forces, spring
-//! energy) within 5.5e-13 and 6.8e-10 (6.4e-10 and 4.9e-14, 5.4e-9 and 6.8e-10 while the arms
+//! bodies 9.9e-14 (first order) and 9.6e-13 (RATTLE; 2.7e-14 before the island's own path left
+//! a RATTLE substep's velocity projection to the next substep, which Rapier's path does not)
+//! apart in position and velocity, every output field (measures, rates, reaction force and
+//! moment, gaps, element forces, spring energy) within 5.5e-13 and 6.8e-10 (6.4e-10 and
+//! 4.9e-14, 5.4e-9 and 6.8e-10 while the arms
 //! took the velocity solve; both paths drift them free now, see the Lagrange backend's module
 //! docs: with the island's path alone drifting free, 8.8e-6 m apart after the 60 steps, the two
 //! forms' rotations composing differently where the first substeps have no history to
@@ -34,11 +36,12 @@
 /// See the header: 1e-7 in f64, 1e-2 in f32.
 const BOUND: Real = if size_of::<Real>() == 8 { 1e-7 } else { 1e-2 };
 
-use rapier3d_mpc184::math::rapier::prelude::{
-    ColliderBuilder, MassProperties, RigidBodyBuilder, RigidBodyHandle,
-};
+use rapier3d_mpc184::math::rapier::prelude::{ColliderBuilder, MassProperties, RigidBodyBuilder};
 use rapier3d_mpc184::prelude::*;
 use rapier3d_mpc184::studies::benchmarks;
+
+mod common;
+use common::dynamic_bodies;
 
 /// The scene, with the far collider or without; the spring joint's id.
 fn world(integrator: Integrator, far_collider: bool) -> (Mpc184World, Vec<JointId>) {
@@ -75,18 +78,6 @@ fn world(integrator: Integrator, far_collider: bool) -> (Mpc184World, Vec<JointI
         );
     }
     (w, joints)
-}
-
-fn dynamic_bodies(w: &Mpc184World) -> Vec<RigidBodyHandle> {
-    let mut v: Vec<_> = w
-        .physics
-        .bodies
-        .iter()
-        .filter(|(_, rb)| rb.is_dynamic())
-        .map(|(h, _)| h)
-        .collect();
-    v.sort_by_key(|h| h.into_raw_parts());
-    v
 }
 
 #[test]

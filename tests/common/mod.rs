@@ -360,3 +360,22 @@ pub fn falling_arm_chord_steps(integrator: Integrator) -> (f64, Real) {
     }
     (sum as f64 / 20.0, gap)
 }
+
+/// The world's dynamic bodies, in handle order (the same list for two worlds built alike).
+#[allow(
+    dead_code,
+    reason = "only the tests that compare two worlds body by body use it"
+)]
+pub fn dynamic_bodies(
+    w: &Mpc184World,
+) -> Vec<rapier3d_mpc184::math::rapier::dynamics::RigidBodyHandle> {
+    let mut v: Vec<_> = w
+        .physics
+        .bodies
+        .iter()
+        .filter(|(_, rb)| rb.is_dynamic())
+        .map(|(h, _)| h)
+        .collect();
+    v.sort_by_key(|h| h.into_raw_parts());
+    v
+}
