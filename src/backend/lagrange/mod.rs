@@ -998,7 +998,7 @@ fn displace_state(s: &mut BodyState, d: [Real; 6]) {
 /// Moves a body's centre of mass by `dx` and turns it by the rotation vector `dth` about it.
 fn displace(s: &mut BodyState, dx: Vector, dth: Vector) {
     s.com += dx;
-    let rot: Rotation = (Rotation::from_scaled_axis(dth) * s.pose.rotation).normalize();
+    let rot: Rotation = (crate::math::turn(dth) * s.pose.rotation).normalize();
     s.pose.rotation = rot;
     s.pose.translation = s.com - rot * s.local_com;
 }
