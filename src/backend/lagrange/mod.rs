@@ -201,6 +201,13 @@ const WARM_START_LIMIT: Real = 1e-3;
 /// Fixed-point iterations of the implicit-midpoint gyroscopic term per body and substep.
 const GYRO_ITERATIONS: usize = 4;
 
+/// A chord iteration evaluates the rows' values alone (not their Jacobian) where the residual
+/// it expects, the last one times the last projection's slowest contraction per step, is above
+/// this many times the tolerance (see `Island::project_positions`): it is then followed by
+/// another step. Where it stops after all, the Jacobian is evaluated there (the frames
+/// computed again).
+const CHORD_MARGIN: Real = 4.0;
+
 /// Largest number of chord iterations of the position projection per substep.
 const MAX_PROJECTION_ITERATIONS: usize = 40;
 
@@ -506,6 +513,12 @@ pub(crate) struct Island {
     /// Substeps left in the velocity solve's form, where the free drift's prediction took too
     /// many chord steps (see `Island::free_drift`).
     free_pause: u32,
+    /// The largest contraction of the residual per chord step in the last position projection
+    /// that took one (0 before): a chord iteration expected to stay above the tolerance
+    /// evaluates the rows' values alone (see `Island::project_positions`). It only chooses
+    /// what is evaluated, never a result.
+    #[cfg_attr(feature = "serde-snapshot", serde(skip))]
+    chord_rate: Real,
     shift: Vec<[Real; 6]>,
     /// Per body: the summed stiffness `|F| r` of its joints and its longest lever arm, the
     /// added inertia's scratch (see `Island::added_inertia`; kept to save an allocation per

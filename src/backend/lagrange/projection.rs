@@ -14,9 +14,9 @@ use crate::solver::kkt::JAC_ROW_STRIDE;
 use super::assemble::Eval;
 use super::substep::SUZUKI;
 use super::{
-    BACKTRACKS, Island, MAX_PROJECTION_ITERATIONS, MU_HISTORY, REGULARISATION_LOOPS, SMOOTH,
-    STAGES, WARM_AXES_TOLERANCE, WARM_START_LIMIT, WarmAxes, Warning, angular_block, displace,
-    kkt_err, projection_tolerance,
+    BACKTRACKS, CHORD_MARGIN, Island, MAX_PROJECTION_ITERATIONS, MU_HISTORY, REGULARISATION_LOOPS,
+    SMOOTH, STAGES, WARM_AXES_TOLERANCE, WARM_START_LIMIT, WarmAxes, Warning, angular_block,
+    displace, kkt_err, projection_tolerance,
 };
 
 impl Island {
@@ -130,9 +130,14 @@ impl Island {
             *s = [0.0; 6];
         }
         self.warm_start(joints, bodies, h);
-        // The warm start evaluated the rows' values alone (see `Island::residual`): the
-        // Jacobian is evaluated with them only where no chord step follows.
-        let values_only = self.fresh_values;
+        // Whether the Jacobian arena is behind the bodies: the warm start evaluated the rows'
+        // values alone (see `Island::residual`), and so does a chord iteration that expects
+        // another step to follow. Only the Jacobian at `q_(n+1)` is read (the chord steps take
+        // their directions from the factorisation), so it is evaluated where the projection
+        // stops.
+        let mut jac_behind = self.fresh_values;
+        // The largest contraction of the residual per chord step seen in this projection.
+        let mut rate: Real = 0.0;
         // A stage's own extrapolation (see `Island::extrapolate_multipliers`) takes at least
         // one chord step, and converges to the warm axes' tolerance where it starts within
         // `far` of the tolerance.
@@ -152,14 +157,28 @@ impl Island {
             // The Jacobian is evaluated with the values: the last evaluation is the Jacobian at
             // `q_(n+1)` (the chord steps use the factorisation, not these).
             if !core::mem::take(&mut self.fresh_values) {
-                self.eval_rows(joints, bodies, Eval::Geometry);
+                // A step expected to leave the residual far above the tolerance (at the
+                // contraction of the last projection's slowest chord step) is followed by
+                // another: its Jacobian would not be read.
+                jac_behind = !newton
+                    && previous.is_finite()
+                    && previous * self.chord_rate > CHORD_MARGIN * tol;
+                let what = if jac_behind {
+                    Eval::Values
+                } else {
+                    Eval::Geometry
+                };
+                self.eval_rows(joints, bodies, what);
             }
             residual = self.projection_targets(h);
+            if !newton && previous.is_finite() && residual < previous {
+                rate = rate.max(residual / previous);
+            }
             if it == 0 && predicted && residual <= far {
                 tol = tol.min(WARM_AXES_TOLERANCE * nominal);
             }
             if (residual <= tol && (it > 0 || !predicted)) || it == MAX_PROJECTION_ITERATIONS {
-                if it == 0 && values_only {
+                if jac_behind {
                     self.eval_rows(joints, bodies, Eval::Geometry);
                 }
                 iterations = it;
@@ -188,6 +207,9 @@ impl Island {
             previous = residual;
         }
         self.reg_scale = 1.0;
+        if rate > 0.0 {
+            self.chord_rate = rate;
+        }
         if self.free_h > 0.0 {
             self.free_measure(iterations);
             self.carry_into_mu(self.free_h);
@@ -206,10 +228,19 @@ impl Island {
                 ),
             );
         }
-        // Feed the correction into the velocity (constrained symplectic Euler). A free rotor
-        // (see `Island::drift`) takes it into its angular momentum: the correction's impulse
-        // `M~ d / h` (the factorisation's mass, `d = M~^-1 J^T mu`), and `w = I^-1 L` at the
-        // projected pose.
+        self.feed_correction(h);
+        // The rows' values and Jacobian are those at `q_(n+1)` now; their compliances with the
+        // inertia there.
+        self.constraint_terms(joints, bodies, h);
+        self.record_warm_axes(joints, bodies);
+        Ok(())
+    }
+
+    /// Feeds the projection's correction into the velocity (constrained symplectic Euler). A
+    /// free rotor (see `Island::drift`) takes it into its angular momentum: the correction's
+    /// impulse `M~ d / h` (the factorisation's mass, `d = M~^-1 J^T mu`), and `w = I^-1 L` at
+    /// the projected pose.
+    fn feed_correction(&mut self, h: Real) {
         for i in 0..self.st.len() {
             let d = self.shift[i];
             let dth = Vector::new(d[3], d[4], d[5]);
@@ -226,11 +257,6 @@ impl Island {
                 s.refresh_inertia();
             }
         }
-        // The rows' values and Jacobian are those at `q_(n+1)` now; their compliances with the
-        // inertia there.
-        self.constraint_terms(joints, bodies, h);
-        self.record_warm_axes(joints, bodies);
-        Ok(())
     }
 
     /// Records frame 2's axes relative to frame 1's at the state now (the substep's end) for
