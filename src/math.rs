@@ -86,6 +86,7 @@ mod tests {
             assert_eq!((small * from.inverse()).to_scaled_axis(), Vector::ZERO);
         }
     }
+
     /// `turn` against `from_scaled_axis` on both sides of its series' bound (0.01 rad) and at
     /// zero: the series' first term left out is `x^8 / 9!` of the sine (`x` the half angle),
     /// below 1e-20 at the bound, so the two agree to round-off (a few `Real::EPSILON`).

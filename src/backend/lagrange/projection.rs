@@ -154,12 +154,11 @@ impl Island {
         let mut newton = false;
         let mut backtracks = 0;
         for it in 0..=MAX_PROJECTION_ITERATIONS {
-            // The Jacobian is evaluated with the values: the last evaluation is the Jacobian at
-            // `q_(n+1)` (the chord steps use the factorisation, not these).
+            // The rows at the iterate: with the Jacobian, unless the step to it is expected to
+            // have left the residual far above the tolerance (at the contraction of the last
+            // projection's slowest chord step), so that another step follows and this
+            // Jacobian would not be read (see `jac_behind`).
             if !core::mem::take(&mut self.fresh_values) {
-                // A step expected to leave the residual far above the tolerance (at the
-                // contraction of the last projection's slowest chord step) is followed by
-                // another: its Jacobian would not be read.
                 jac_behind = !newton
                     && previous.is_finite()
                     && previous * self.chord_rate > CHORD_MARGIN * tol;
