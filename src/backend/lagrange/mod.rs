@@ -563,6 +563,11 @@ pub(crate) struct Island {
     /// step's start (not in a snapshot: the next step sets it).
     #[cfg_attr(feature = "serde-snapshot", serde(skip))]
     plain: bool,
+    /// The constraint terms ([`Island::constraint_terms`]) were evaluated in this step, on a
+    /// plain tree island without kinematic bodies at the nominal regularisation: they hold
+    /// for the step's other substeps. Cleared at each step's start.
+    #[cfg_attr(feature = "serde-snapshot", serde(skip))]
+    terms_fresh: bool,
     /// Some body of the island has a collider (contacts can act on it): each substep notes the
     /// island's energy at its start ([`Island::book_contacts`]). Set at each step's start.
     #[cfg_attr(feature = "serde-snapshot", serde(skip))]
@@ -922,6 +927,7 @@ impl Island {
         self.plain = !self.has_effects
             && self.springs.is_empty()
             && !roles.any(&self.members, Roles::REFERENCES);
+        self.terms_fresh = false;
         self.watch_contacts = self
             .bodies
             .iter()
