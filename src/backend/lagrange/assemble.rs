@@ -163,12 +163,11 @@ impl Island {
         let steady = self.plain
             && !self.has_kinematic
             && self.regularisation < REGULARISATION_LOOPS
-            && self.reg_scale == 1.0
-            && !self.penalty.iter().any(|p| *p);
+            && self.reg_scale == 1.0;
         if steady && self.terms_fresh {
             return;
         }
-        self.terms_fresh = steady;
+        self.terms_fresh = false;
         let Some(kkt) = self.kkt.as_ref() else { return };
         let reg = self.regularisation * self.reg_scale;
         let (jac, st) = (&self.jac[..], &self.st[..]);
@@ -231,6 +230,9 @@ impl Island {
                 };
             }
         }
+        // Read from the flags just written: a penalty row's compliance depends on `h`, which a
+        // composed step's stages change.
+        self.terms_fresh = steady && !self.penalty.iter().any(|p| *p);
     }
 
     /// Mass blocks (with added inertia from the last substep's joint forces) and factorisation.

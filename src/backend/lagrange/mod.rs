@@ -564,8 +564,8 @@ pub(crate) struct Island {
     #[cfg_attr(feature = "serde-snapshot", serde(skip))]
     plain: bool,
     /// The constraint terms ([`Island::constraint_terms`]) were evaluated in this step, on a
-    /// plain tree island without kinematic bodies at the nominal regularisation: they hold
-    /// for the step's other substeps. Cleared at each step's start.
+    /// plain tree island without penalty rows or kinematic bodies, at the nominal
+    /// regularisation: they hold for the step's other substeps. Cleared at each step's start.
     #[cfg_attr(feature = "serde-snapshot", serde(skip))]
     terms_fresh: bool,
     /// Some body of the island has a collider (contacts can act on it): each substep notes the
