@@ -9,8 +9,9 @@
 //! (`LagrangeDiagnostics::projection_iterations`), averaged from the fifth step on (the
 //! extrapolation's history fills over the first substeps).
 //!
-//! Measured: 0.91 on the pendulum and 2.18 on the chain since they drift free of the velocity
-//! solve (the Lagrange backend's module docs); in fixed axes 1.98 and 2.75; with the free
+//! Measured: 0.89 on the pendulum and 2.18 on the chain since they drift free of the velocity
+//! solve (the Lagrange backend's module docs; the pendulum 0.91 before its constraint terms
+//! were taken once per step); in fixed axes 1.98 and 2.75; with the free
 //! drift's carry left out of the extrapolation, the pendulum 1.97. With the velocity solve
 //! they took 1.23 and 2.00 (1.20 and 2.25 before the warm start's order test weighed its rows,
 //! `tests/warm_start_order.rs`), and in fixed axes 2.06 and 3.06 (the warm start left 5e-6 to
