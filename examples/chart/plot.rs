@@ -85,10 +85,23 @@ pub(crate) fn by_substep(runs: &[&Run], method: Method) -> Vec<(f64, f64)> {
 /// an error above `floor` and out of the method's own error floor: above 100 times its best
 /// error if that leaves three points, else 10 times, else all above `floor` (a fourth-order
 /// method reaches the projection's 1e-10 m within a few halvings, and the flat tail would
-/// pull its slope down: A01 fitted 2.9 with the tail, 4.0 without). NaN with fewer than two.
+/// pull its slope down: A01 fitted 2.9 with the tail, 4.0 without). A method whose best error
+/// is below `floor` is fitted only at substeps no finer than that best error's: past it the
+/// error grows again as `h` shrinks (each substep's projection leaves up to its 1e-10 m
+/// tolerance, and more substeps leave more of it), which is no truncation error. The conical
+/// pendulum's fourth order falls by 16.1 to 16.3 per halved `h` from 1.1e-5 m at 1/30 s to
+/// 1.1e-11 m at 1/960 s, reaches 4.0e-13 m at 1/1920 s and rises to 1.7e-9 m at 1/7680 s;
+/// with that last point in, the fit said 1.41. A method that stops converging above `floor`
+/// (a soft penalty's elastic gap) keeps every point. NaN with fewer than two points.
 pub(crate) fn observed_order(pts: &[(f64, f64)], floor: f64) -> f64 {
-    let best = pts.iter().map(|q| q.1).fold(f64::INFINITY, f64::min);
-    let above = |lim: f64| pts.iter().filter(move |(_, e)| *e > lim.max(floor));
+    let (h_min, best) = pts
+        .iter()
+        .fold((0.0, f64::INFINITY), |a, q| if q.1 < a.1 { *q } else { a });
+    let h_best = if best < floor { h_min } else { 0.0 };
+    let above = move |lim: f64| {
+        pts.iter()
+            .filter(move |(h, e)| *h >= h_best && *e > lim.max(floor))
+    };
     let lim = [100.0, 10.0]
         .into_iter()
         .map(|k| k * best)
@@ -760,4 +773,60 @@ where
         )?;
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    //! The observed order's fit: a fourth-order sequence (each halved `h` divides the error by
+    //! 16) gives 4 whatever tail of round-off follows its best point, and a method that stops
+    //! converging above the floor keeps every point of its plateau.
+
+    use super::observed_order;
+
+    /// `(h, e)` for `h = 1/30 .. 1/7680` with `e(h)` from `f`.
+    fn halvings(f: impl Fn(usize, f64) -> f64) -> Vec<(f64, f64)> {
+        let mut pts: Vec<(f64, f64)> = (0..9)
+            .map(|k| {
+                let h = 1.0 / (30.0 * (1u32 << k) as f64);
+                (h, f(k, h))
+            })
+            .collect();
+        pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+        pts
+    }
+
+    #[test]
+    fn a_round_off_tail_past_the_best_error_is_left_out() {
+        // The conical pendulum's fourth order in the 2026-11-27 study: 1.1e-5 m at 1/30 s, 16x
+        // less per halving down to 1/1920 s (4e-13 m at the last), then 5.7e-10 and 1.7e-9 m
+        // at 1/3840 and 1/7680 s. The points above the 1e-9 m floor are the four coarsest and
+        // the last; without the last the fit is exactly 4 (pure powers of 16), and with it
+        // the slope was 1.41. 1e-9 of tolerance: the fit's own round-off.
+        let tail = [5.7e-10, 1.7e-9];
+        let pts = halvings(|k, _| {
+            if k < 7 {
+                1.1e-5 / 16f64.powi(k as i32)
+            } else {
+                tail[k - 7]
+            }
+        });
+        let p = observed_order(&pts, 1e-9);
+        assert!((p - 4.0).abs() < 1e-9, "order {p}");
+    }
+
+    #[test]
+    fn a_plateau_above_the_floor_keeps_its_points() {
+        // A soft penalty: first order down to 1/240 s, then stuck at its elastic gap of
+        // 1e-2 m with a small wobble (the best point at 1/480 s). Its best error is above the
+        // floor, so every point counts and the fit is well below 1 (a least-squares slope of
+        // 1, 1, 1, 0, ... over eight intervals); dropping the points finer than the best one
+        // would leave a fit of the first-order stretch alone, near 1.
+        let pts = halvings(|k, _| match k {
+            0..=3 => 8e-2 / 2f64.powi(k as i32),
+            4 => 0.99e-2,
+            _ => 1e-2,
+        });
+        let p = observed_order(&pts, 1e-9);
+        assert!(p > 0.0 && p < 0.7, "order {p}");
+    }
 }
