@@ -783,13 +783,10 @@ mod tests {
 
     use super::observed_order;
 
-    /// `(h, e)` for `h = 1/30 .. 1/7680` with `e(h)` from `f`.
-    fn halvings(f: impl Fn(usize, f64) -> f64) -> Vec<(f64, f64)> {
+    /// `(h, e)` for `h = 1/30 .. 1/7680` (`k` = 0 .. 8 halvings) with `e = f(k)`.
+    fn halvings(f: impl Fn(usize) -> f64) -> Vec<(f64, f64)> {
         let mut pts: Vec<(f64, f64)> = (0..9)
-            .map(|k| {
-                let h = 1.0 / (30.0 * (1u32 << k) as f64);
-                (h, f(k, h))
-            })
+            .map(|k| (1.0 / (30.0 * (1u32 << k) as f64), f(k)))
             .collect();
         pts.sort_by(|a, b| a.0.total_cmp(&b.0));
         pts
@@ -798,12 +795,12 @@ mod tests {
     #[test]
     fn a_round_off_tail_past_the_best_error_is_left_out() {
         // The conical pendulum's fourth order in the 2026-11-27 study: 1.1e-5 m at 1/30 s, 16x
-        // less per halving down to 1/1920 s (4e-13 m at the last), then 5.7e-10 and 1.7e-9 m
-        // at 1/3840 and 1/7680 s. The points above the 1e-9 m floor are the four coarsest and
+        // less per halving down to 1/1920 s (6.6e-13 m there in this sequence, 4.0e-13 in the
+        // study), then 5.7e-10 and 1.7e-9 m at 1/3840 and 1/7680 s. The points above the 1e-9 m floor are the four coarsest and
         // the last; without the last the fit is exactly 4 (pure powers of 16), and with it
         // the slope was 1.41. 1e-9 of tolerance: the fit's own round-off.
         let tail = [5.7e-10, 1.7e-9];
-        let pts = halvings(|k, _| {
+        let pts = halvings(|k| {
             if k < 7 {
                 1.1e-5 / 16f64.powi(k as i32)
             } else {
@@ -820,8 +817,8 @@ mod tests {
         // 1e-2 m with a small wobble (the best point at 1/480 s). Its best error is above the
         // floor, so every point counts and the fit is well below 1 (a least-squares slope of
         // 1, 1, 1, 0, ... over eight intervals); dropping the points finer than the best one
-        // would leave a fit of the first-order stretch alone, near 1.
-        let pts = halvings(|k, _| match k {
+        // would leave a fit of the first-order stretch and the best point alone (0.80).
+        let pts = halvings(|k| match k {
             0..=3 => 8e-2 / 2f64.powi(k as i32),
             4 => 0.99e-2,
             _ => 1e-2,
