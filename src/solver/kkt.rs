@@ -1177,14 +1177,10 @@ impl<'a, const N: usize, const P: bool> Factor<'a, N, P> {
         }
     }
 
-    /// The original row of position `i` (see [`permuted_row`]; `i` itself without `P`).
+    /// The original row of position `i` (see [`permuted_row`]).
     #[inline(always)]
     fn row(&self, i: usize) -> usize {
-        if P {
-            permuted_row::<N>(self.perm, i)
-        } else {
-            i
-        }
+        permuted_row::<N, P>(self.perm, i)
     }
 
     /// For one off-diagonal block `Wᵀ` (`N × M`, in `wy`) towards a later node with diagonal
@@ -1554,14 +1550,10 @@ impl<'a, const N: usize, const P: bool> Packed<'a, N, P> {
         }
     }
 
-    /// The original row of position `i` (see [`permuted_row`]; `i` itself without `P`).
+    /// The original row of position `i` (see [`permuted_row`]).
     #[inline(always)]
     fn row(&self, i: usize) -> usize {
-        if P {
-            permuted_row::<N>(self.perm, i)
-        } else {
-            i
-        }
+        permuted_row::<N, P>(self.perm, i)
     }
 
     /// `X Π v = L⁻¹ Π v` (`v` in original order, at least `N` long). Unrolled; the rows are
@@ -1630,9 +1622,15 @@ impl<'a, const N: usize, const P: bool> Packed<'a, N, P> {
 /// compiled, with `-C target-cpu=native` on this machine's AVX-512 core, into a masked vector
 /// store that the scalar reads right after could not take their values from (the store had to
 /// reach the cache first): 17 % of `KktSolver::solve`'s samples stalled on those reads.
+/// Without `P` (no block of the factorisation was pivoted) the permutation is the identity
+/// and is not read: `i` itself.
 #[inline(always)]
-fn permuted_row<const N: usize>(perm: &[u8], i: usize) -> usize {
-    usize::from(perm[i]).min(N - 1)
+fn permuted_row<const N: usize, const P: bool>(perm: &[u8], i: usize) -> usize {
+    if P {
+        usize::from(perm[i]).min(N - 1)
+    } else {
+        i
+    }
 }
 
 /// `n (n + 1) / 2`: the size of a packed lower triangle; its row `i` starts at `tri(i)`. The
@@ -1886,16 +1884,6 @@ impl PivotWork {
         for (is, &sc) in inv_s.iter_mut().zip(&*sd) {
             *is = if sc > 0.0 { 1.0 / sc } else { 0.0 };
         }
-        // A copy of a joint block for the pivoted factorisation: `N × N` holds its `tri(N)`
-        // reals (a length of `tri(N)` is not a type on stable Rust), filled entry by entry
-        // (zeroing it first was a `memset` call per block, 0.3 % of the 100-link chain's step).
-        let saved: [[Real; N]; N] = if body {
-            [[0.0; N]; N]
-        } else {
-            std::array::from_fn(|i| {
-                std::array::from_fn(|j| w.get(i * N + j).copied().unwrap_or(0.0))
-            })
-        };
         let mut st = Ldl {
             w,
             inv_s,
@@ -1917,6 +1905,12 @@ impl PivotWork {
             self.pivoted = false;
             steps!(step_spd, 0 1 2 3 4 5 6 7 8 9 10 11);
         } else {
+            // The block for the pivoted factorisation: `N × N` holds its `tri(N)` reals (a
+            // length of `tri(N)` is not a type on stable Rust), filled entry by entry (zeroing
+            // it first was a `memset` call per block, 0.3 % of the 100-link chain's step).
+            let saved: [[Real; N]; N] = std::array::from_fn(|i| {
+                std::array::from_fn(|j| st.w.get(i * N + j).copied().unwrap_or(0.0))
+            });
             let (mut unpivoted, mut prod) = (true, 1.0);
             let floor = 2.0 * thresh;
             macro_rules! definite {
