@@ -347,6 +347,14 @@ fn kkt_residual(
     worst
 }
 
+/// Lane `lane` of `lanes` equals `scalar` to the bit.
+fn same(lane: usize, what: &str, lanes: &[f64x4], scalar: &[f64]) {
+    for (i, (w, s)) in lanes.iter().zip(scalar).enumerate() {
+        let w: [f64; 4] = (*w).into();
+        assert_eq!(w[lane].to_bits(), s.to_bits(), "lane {lane}: {what}[{i}]");
+    }
+}
+
 /// The lanes reproduce the scalar factors to the bit, and a scalar solve satisfies the
 /// assembled system (the sum of a few dozen products of size 1 with round-off 1e-16 each,
 /// amplified by the blocks' condition: 1e-12 leaves two to three orders of margin).
@@ -358,22 +366,12 @@ fn check(arms: &[Arm<f64>; 4]) {
         let mut f = Factors::zero();
         factor(a, &mut f);
         for b in 0..5 {
-            for i in 0..36 {
-                let w: [f64; 4] = fw.l[b][i].into();
-                assert_eq!(
-                    w[lane].to_bits(),
-                    f.l[b][i].to_bits(),
-                    "lane {lane} L[{b}][{i}]"
-                );
-            }
-            for i in 0..25 {
-                let w: [f64; 4] = fw.ls[b][i].into();
-                assert_eq!(
-                    w[lane].to_bits(),
-                    f.ls[b][i].to_bits(),
-                    "lane {lane} Ls[{b}][{i}]"
-                );
-            }
+            same(lane, "L", &fw.l[b], &f.l[b]);
+            same(lane, "D^-1", &fw.dinv[b], &f.dinv[b]);
+            same(lane, "Y", &fw.y[b], &f.y[b]);
+            same(lane, "Ls", &fw.ls[b], &f.ls[b]);
+            same(lane, "Ds^-1", &fw.dsinv[b], &f.dsinv[b]);
+            same(lane, "Z", &fw.z[b], &f.z[b]);
         }
         let rb = [[0.3, -0.2, 0.1, 0.05, 0.4, -0.6]; 5];
         let rj = [[0.7, -0.1, 0.2, 0.3, -0.5]; 5];
