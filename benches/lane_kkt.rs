@@ -73,6 +73,18 @@ struct Arm<T> {
     compliance: [[T; 5]; 5],
 }
 
+impl<T: Lane> Arm<T> {
+    fn zero() -> Self {
+        let z = T::splat(0.0);
+        Arm {
+            mass: [[z; 36]; 5],
+            jc: [[z; 30]; 5],
+            jp: [[z; 30]; 5],
+            compliance: [[z; 5]; 5],
+        }
+    }
+}
+
 /// The factors: per body `L` (unit lower, stride 6) and `D⁻¹`, `Y = L⁻¹ J_cᵀ` (6 x rows);
 /// per joint `L_s`, `D_s⁻¹` of its Schur complement and `Z = L_s⁻¹ J_p` (rows x 6).
 #[derive(Clone, Copy)]
@@ -263,12 +275,7 @@ fn arm(seed: u64) -> Arm<f64> {
         s ^= s << 17;
         (s >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
     };
-    let mut a = Arm {
-        mass: [[0.0; 36]; 5],
-        jc: [[0.0; 30]; 5],
-        jp: [[0.0; 30]; 5],
-        compliance: [[0.0; 5]; 5],
-    };
+    let mut a = Arm::zero();
     for b in 0..5 {
         for i in 0..3 {
             a.mass[b][i * 6 + i] = 0.1;
@@ -289,12 +296,7 @@ fn arm(seed: u64) -> Arm<f64> {
 /// Four arms in the four lanes.
 fn pack(arms: &[Arm<f64>; 4]) -> Arm<f64x4> {
     let lanes = |f: &dyn Fn(&Arm<f64>) -> f64| f64x4::from(arms.each_ref().map(f));
-    let mut p = Arm {
-        mass: [[f64x4::ZERO; 36]; 5],
-        jc: [[f64x4::ZERO; 30]; 5],
-        jp: [[f64x4::ZERO; 30]; 5],
-        compliance: [[f64x4::ZERO; 5]; 5],
-    };
+    let mut p = Arm::zero();
     for b in 0..5 {
         for i in 0..36 {
             p.mass[b][i] = lanes(&|a| a.mass[b][i]);
