@@ -2,3 +2,4 @@
 pub mod dense;
 pub mod forest;
 pub mod kkt;
+pub(crate) mod lane;

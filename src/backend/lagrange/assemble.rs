@@ -9,7 +9,7 @@ use crate::joint_set::JointSet;
 use crate::math::rapier::dynamics::{RigidBodyHandle, RigidBodySet};
 use crate::math::{Matrix, Pose, Real, Vector};
 use crate::rows::{FramePair, RowKind};
-use crate::solver::kkt::JAC_ROW_STRIDE;
+use crate::solver::kkt::{FactorReport, JAC_ROW_STRIDE};
 
 /// What an evaluation of the rows computes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -243,6 +243,26 @@ impl Island {
         h: Real,
         time: Real,
     ) -> Result<(), Error> {
+        self.mass_blocks(joints, bodies, h);
+        self.factor_blocks(time)
+    }
+
+    /// The factorisation of the mass blocks ([`Island::mass_blocks`]), the Jacobian and the
+    /// compliances, with its report.
+    pub(super) fn factor_blocks(&mut self, time: Real) -> Result<(), Error> {
+        let Some(kkt) = self.kkt.as_mut() else {
+            return Ok(());
+        };
+        let report = kkt
+            .factor(&self.mass, &self.jac, &self.compliance)
+            .map_err(|e| kkt_err(e, time))?;
+        self.note_factor(report, time);
+        Ok(())
+    }
+
+    /// The mass blocks the factorisation reads: each body's mass and inertia, with the added
+    /// inertia from the last substep's joint forces.
+    pub(super) fn mass_blocks(&mut self, joints: &JointSet, bodies: &RigidBodySet, h: Real) {
         self.added_inertia(joints, bodies, h);
         for (i, s) in self.st.iter().enumerate() {
             let m = &mut self.mass[i];
@@ -255,12 +275,10 @@ impl Island {
                 m[6 * (3 + a) + 3 + a] += s.added;
             }
         }
-        let Some(kkt) = self.kkt.as_mut() else {
-            return Ok(());
-        };
-        let report = kkt
-            .factor(&self.mass, &self.jac, &self.compliance)
-            .map_err(|e| kkt_err(e, time))?;
+    }
+
+    /// A factorisation's report into the island's: its redundant rows, with a warning.
+    pub(super) fn note_factor(&mut self, report: FactorReport, time: Real) {
         // The topology check (unregularised) found the structural redundancy; a regularised
         // factorisation only sees rows that are dependent numerically as well.
         self.report.redundant_rows = report.redundant_rows.max(self.redundant_count);
@@ -275,7 +293,6 @@ impl Island {
                 ),
             );
         }
-        Ok(())
     }
 
     /// Geometric stiffness as added rotational inertia (see the module docs): each joint's

@@ -16,7 +16,7 @@ use super::effects::Effects;
 use super::refresh_joint;
 use super::{
     BodyState, Island, IslandStart, LagrangeBackend, MAX_VELOCITY_REFINEMENTS, free_rotor,
-    gyroscopic_kick, kkt_err, projection_tolerance, rotation_scale, velocity_tolerance,
+    gyroscopic_kick, kkt_err, lanes, projection_tolerance, rotation_scale, velocity_tolerance,
 };
 
 /// The free drift's running mean of chord steps (see [`Island::free_drift`]) is taken over
@@ -99,41 +99,80 @@ impl LagrangeBackend {
         n: usize,
         out: &OutputPass,
     ) -> Result<(), Error> {
-        let h = start.h;
+        let (h, roles, rebuilt) = (start.h, start.roles, start.rebuilt);
         #[cfg(feature = "parallel")]
         let mut done = {
             use rayon::prelude::*;
             // Each island's start reads the sets and writes only the island.
             let shared: &Sets = sets;
-            let (joints, bodies, time) = (&*shared.joints, &shared.physics.bodies, shared.time);
-            let results: Vec<Result<bool, Error>> = self
-                .islands
-                .par_iter_mut()
-                // One island per task at least: with 4, 10 to 50 islands stepped 6 to 10 %
-                // slower in the median (paired probe runs; load imbalance).
+            let step = lanes::PlainStep {
+                joints: shared.joints,
+                bodies: &shared.physics.bodies,
+                time: shared.time,
+                h,
+                n,
+            };
+            let units = lanes::units(&mut self.islands, &mut self.lanes);
+            let sizes: Vec<usize> = units.iter().map(|(unit, _)| unit.len()).collect();
+            let results: Vec<Result<u8, Error>> = units
+                .into_par_iter()
+                // One unit per task at least: with 4 islands, 10 to 50 islands stepped 6 to
+                // 10 % slower in the median (paired probe runs; load imbalance).
                 .with_min_len(1)
-                .map(|island| {
-                    island.start_step(shared, start.roles, h, start.rebuilt, true)?;
-                    if island.plain {
-                        island.step_plain(joints, bodies, time, h, n)?;
-                    }
-                    Ok(island.plain)
+                .map(|(unit, lanes)| {
+                    let start =
+                        |island: &mut Island| island.start_step(shared, roles, h, rebuilt, true);
+                    lanes::step_unit(unit, lanes, start, step)
                 })
                 .collect();
-            results.into_iter()
+            // Per island, in island order: stepped on the pool, or the unit's error.
+            let mut flags = Vec::with_capacity(self.islands.len());
+            for (result, size) in results.into_iter().zip(sizes) {
+                match result {
+                    Ok(mask) => flags.extend((0..size).map(|d| Ok(mask & (1 << d) != 0))),
+                    Err(e) => {
+                        flags.push(Err(e));
+                        flags.extend((1..size).map(|_| Ok(false)));
+                    }
+                }
+            }
+            flags.into_iter()
         };
+        #[cfg(feature = "parallel")]
         for island in &mut self.islands {
-            #[cfg(feature = "parallel")]
             if done.next().transpose()? == Some(true) {
                 island.write_back(sets.physics, sets.time)?;
                 island.sleep_check(&mut sets.physics.bodies, h * n as Real);
                 continue;
             }
-            #[cfg(not(feature = "parallel"))]
-            island.start_step(sets, start.roles, h, start.rebuilt, true)?;
             island.step_alone(&mut self.fx, sets, h, n)?;
             island.sleep_check(&mut sets.physics.bodies, h * n as Real);
-            island.refresh_outputs(&self.fx, sets, start.roles, out, &mut self.refreshed);
+            island.refresh_outputs(&self.fx, sets, roles, out, &mut self.refreshed);
+        }
+        #[cfg(not(feature = "parallel"))]
+        for (unit, lanes) in lanes::units(&mut self.islands, &mut self.lanes) {
+            let stepped = {
+                let shared: &Sets = sets;
+                let start =
+                    |island: &mut Island| island.start_step(shared, roles, h, rebuilt, true);
+                let step = lanes::PlainStep {
+                    joints: shared.joints,
+                    bodies: &shared.physics.bodies,
+                    time: shared.time,
+                    h,
+                    n,
+                };
+                lanes::step_unit(unit, lanes, start, step)?
+            };
+            for (d, island) in unit.iter_mut().enumerate() {
+                if stepped & (1 << d) != 0 {
+                    island.write_back(sets.physics, sets.time)?;
+                } else {
+                    island.step_alone(&mut self.fx, sets, h, n)?;
+                }
+                island.sleep_check(&mut sets.physics.bodies, h * n as Real);
+                island.refresh_outputs(&self.fx, sets, roles, out, &mut self.refreshed);
+            }
         }
         #[cfg(feature = "parallel")]
         self.refresh_plain_outputs(sets, out);
@@ -195,7 +234,7 @@ impl Island {
     /// out: read too, it turned the slider-crank of `tests/adaptive_divergence.rs` to RATTLE
     /// more often, and its adaptive run asked 1e-2 m ended 1.3e-2 m off in 1630 substeps
     /// (2.4e-5 m in 1081 without).
-    fn step_plain(
+    pub(super) fn step_plain(
         &mut self,
         joints: &JointSet,
         bodies: &RigidBodySet,
@@ -243,37 +282,61 @@ impl Island {
             for (stage, &gamma) in stages.iter().enumerate() {
                 let hs = gamma * h;
                 self.stage = (stage, h);
-                self.kick_and_solve(hs, time, self.free_drift())?;
-                self.drift(hs);
-                self.project_positions(joints, bodies, hs, time)?;
+                self.before_factor(joints, bodies, hs, time)?;
                 self.factor(joints, bodies, hs, time)?;
-                // The velocity projection at `q_(n+1)` and the next substep's velocity solve
-                // share this factorisation, and a projection is linear: with a kick between
-                // that is linear in the velocities, `P(P(v) + a) = P(v + a)`, up to the hard
-                // rows' regularisation. Such an island leaves the projection to that solve,
-                // but not in the step's last two substeps: the reactions are the last
-                // substep's impulses, and its velocity solve would carry the projection
-                // impulse of the substep before (the rigid link's bottom tension came out
-                // 33 % high, `tests/rigid_link.rs`). Measured (callgrind, 1/60 x 4, 100 steps,
-                // 50 on the chains): 3.3 to 4.5 % fewer instructions on the pendulum, the
-                // mixed scene and the 100-link chain; the 1:1000 chain (added inertia) is
-                // unchanged.
                 let last = k + 1 == n && stage + 1 == stages.len();
-                if k + 2 >= n || !self.merges_velocity_projection() {
-                    self.end_momenta(hs);
-                    self.project_velocities(time, last)?;
-                } else {
-                    self.vp_carry.fill(0.0);
-                    if self.second_any {
-                        self.half_kick(hs);
-                    }
-                }
-                self.last_h = hs;
+                self.after_factor(hs, time, k + 2 >= n, last)?;
             }
             // A composed island's factorisation does not depend on the stage size (Lagrange
             // rows only, no added inertia): it holds for the next step's `h`.
             self.factor_valid = Some(h);
         }
+        Ok(())
+    }
+
+    /// A plain substep's stages before its factorisation at `q_(n+1)`: the kick and velocity
+    /// solve, the drift and the position projection.
+    pub(super) fn before_factor(
+        &mut self,
+        joints: &JointSet,
+        bodies: &RigidBodySet,
+        hs: Real,
+        time: Real,
+    ) -> Result<(), Error> {
+        self.kick_and_solve(hs, time, self.free_drift())?;
+        self.drift(hs);
+        self.project_positions(joints, bodies, hs, time)
+    }
+
+    /// A plain substep's stage after its factorisation: the velocity projection, or none
+    /// (`ending`: the substep is one of the step's last two; `last`: the step's last stage,
+    /// whose projection refines).
+    pub(super) fn after_factor(
+        &mut self,
+        hs: Real,
+        time: Real,
+        ending: bool,
+        last: bool,
+    ) -> Result<(), Error> {
+        // The velocity projection at `q_(n+1)` and the next substep's velocity solve share
+        // this factorisation, and a projection is linear: with a kick between that is linear
+        // in the velocities, `P(P(v) + a) = P(v + a)`, up to the hard rows' regularisation.
+        // Such an island leaves the projection to that solve, but not in the step's last two
+        // substeps: the reactions are the last substep's impulses, and its velocity solve
+        // would carry the projection impulse of the substep before (the rigid link's bottom
+        // tension came out 33 % high, `tests/rigid_link.rs`). Measured (callgrind, 1/60 x 4,
+        // 100 steps, 50 on the chains): 3.3 to 4.5 % fewer instructions on the pendulum, the
+        // mixed scene and the 100-link chain; the 1:1000 chain (added inertia) is unchanged.
+        if ending || !self.merges_velocity_projection() {
+            self.end_momenta(hs);
+            self.project_velocities(time, last)?;
+        } else {
+            self.vp_carry.fill(0.0);
+            if self.second_any {
+                self.half_kick(hs);
+            }
+        }
+        self.last_h = hs;
         Ok(())
     }
 

@@ -71,6 +71,7 @@
 use std::collections::{BTreeSet, HashMap};
 
 use crate::math::Real;
+use crate::solver::lane::Lane;
 
 /// Velocity DOFs of one body (linear then angular).
 pub const BODY_DOFS: usize = 6;
@@ -179,6 +180,10 @@ macro_rules! by_rows {
         }
     };
 }
+
+// After the macros above, which it uses.
+mod lanes;
+pub(crate) use lanes::KktLanes;
 
 /// Structure of one joint block: its number of rows and the (up to two) bodies it acts on.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -354,6 +359,91 @@ enum PivotFail {
     NotPositive,
 }
 
+/// The values of a factorisation, over one system ([`Real`]) or four ([`crate::solver::lane::Lanes`],
+/// see [`KktLanes`]), at the offsets of the structure's [`Pivot`]s and [`Block`]s.
+#[derive(Clone, Debug)]
+struct Numeric<T> {
+    /// Per pivot its diagonal block (packed lower triangle), `X = L⁻¹` and `D⁺` once factored
+    /// (see [`Packed`]).
+    diag: Vec<T>,
+    /// Per pivot its reference scales, `D⁺` once factored.
+    scale: Vec<T>,
+    /// Off-diagonal blocks `Wᵀ`, replaced by `Y = L⁻¹ Π Wᵀ` when their pivot is factored.
+    offd: Vec<T>,
+}
+
+/// The structure of a [`KktSolver`] (what [`KktSolver::new`] computes from the bodies and the
+/// joint blocks), apart from its values, so that the same kernels fill the solver's own
+/// [`Numeric`] or a group's lanes.
+#[derive(Clone, Debug)]
+struct Shape {
+    specs: Vec<JointBlockSpec>,
+    row_off: Vec<usize>,
+    pivots: Vec<Pivot>,
+    blocks: Vec<Block>,
+    ops: Vec<PairOp>,
+    jac_targets: Vec<[Option<JacTarget>; 2]>,
+    /// Assembly work, bucketed by the first pivot that needs it (its own diagonal block, or the
+    /// first Schur update into a block): the items of pivot `t` are
+    /// `asm[asm_start[t]..asm_start[t + 1]]`. [`KktSolver::factor`] assembles by chunks of
+    /// pivots just ahead of their elimination, so that the data is still in cache.
+    asm: Vec<Assembly>,
+    asm_start: Vec<usize>,
+}
+
+/// Where the assembly reads its inputs: one system's ([`FactorInputs`], [`Real`]) or four
+/// systems' (one per lane).
+trait Inputs<T: Lane> {
+    /// Body `b`'s mass block: entry `k` (row-major).
+    fn mass(&self, b: usize) -> impl Fn(usize) -> T + '_;
+    /// `M` rows of one body slot of the Jacobian arena from entry `base` on (stride
+    /// [`JAC_ROW_STRIDE`]).
+    fn jac_rows<const M: usize>(&self, base: usize) -> [[T; BODY_DOFS]; M];
+    /// The Jacobian arena from entry `base` on: entry `base + i`.
+    fn jac(&self, base: usize) -> impl Fn(usize) -> T + '_;
+    /// The compliances of the `N` global rows from `r0` on.
+    fn compliance<const N: usize>(&self, r0: usize) -> [T; N];
+}
+
+/// One system's inputs to [`KktSolver::factor`] (see there).
+#[derive(Clone, Copy)]
+pub(crate) struct FactorInputs<'a> {
+    /// Per body its 6×6 mass block, row-major.
+    pub(crate) mass: &'a [[Real; 36]],
+    /// The Jacobian arena.
+    pub(crate) jac: &'a [Real],
+    /// One compliance per global row.
+    pub(crate) compliance: &'a [Real],
+}
+
+impl Inputs<Real> for FactorInputs<'_> {
+    #[inline(always)]
+    fn mass(&self, b: usize) -> impl Fn(usize) -> Real + '_ {
+        let m = &self.mass[b];
+        move |k| m[k]
+    }
+    #[inline(always)]
+    fn jac_rows<const M: usize>(&self, base: usize) -> [[Real; BODY_DOFS]; M] {
+        let src = &self.jac[base..];
+        let mut rows = [[0.0; BODY_DOFS]; M];
+        for (i, row) in rows.iter_mut().enumerate() {
+            row.copy_from_slice(&src[JAC_ROW_STRIDE * i..JAC_ROW_STRIDE * i + BODY_DOFS]);
+        }
+        rows
+    }
+    #[inline(always)]
+    fn jac(&self, base: usize) -> impl Fn(usize) -> Real + '_ {
+        let j = &self.jac[base..];
+        move |i| j[i]
+    }
+    #[inline(always)]
+    fn compliance<const N: usize>(&self, r0: usize) -> [Real; N] {
+        let mut c = [0.0; N];
+        c.copy_from_slice(&self.compliance[r0..r0 + N]);
+        c
+    }
+}
+
 /// Block-sparse `LDLᵀ` solver for the KKT system of jointed rigid bodies.
 ///
 /// Create it with [`KktSolver::new`] when the topology changes, then call
@@ -362,24 +452,10 @@ enum PivotFail {
 #[derive(Clone, Debug)]
 pub struct KktSolver {
     nb: usize,
-    specs: Vec<JointBlockSpec>,
-    row_off: Vec<usize>,
-    pivots: Vec<Pivot>,
-    blocks: Vec<Block>,
-    ops: Vec<PairOp>,
-    jac_targets: Vec<[Option<JacTarget>; 2]>,
-    diag: Vec<Real>,
-    scale: Vec<Real>,
-    /// Off-diagonal blocks `Wᵀ`, replaced by `Y = L⁻¹ Π Wᵀ` when their pivot is factored.
-    offd: Vec<Real>,
+    shape: Shape,
+    num: Numeric<Real>,
     /// Permutation of each pivot's `LDLᵀ` (at the pivot's `scale_off`).
     perms: Vec<u8>,
-    /// Assembly work, bucketed by the first pivot that needs it (its own diagonal block, or the
-    /// first Schur update into a block): the items of pivot `t` are
-    /// `asm[asm_start[t]..asm_start[t + 1]]`. [`Self::factor`] assembles by chunks of pivots
-    /// just ahead of their elimination, so that the data is still in cache.
-    asm: Vec<Assembly>,
-    asm_start: Vec<usize>,
     dropped: Vec<DroppedRow>,
     tol: Real,
     /// Whether the last factorisation pivoted a joint block (every permutation is the
@@ -686,24 +762,24 @@ impl Layout {
 impl KktSolver {
     /// Number of stored off-diagonal blocks (joint–body incidences plus fill).
     pub fn stored_offdiag_blocks(&self) -> usize {
-        self.blocks.len()
+        self.shape.blocks.len()
     }
 
     /// Number of fill blocks (stored off-diagonal blocks that are not joint–body incidences).
     pub fn fill_blocks(&self) -> usize {
-        let incidences: usize = (self.specs.iter())
+        let incidences: usize = (self.shape.specs.iter())
             .filter(|s| s.rows > 0)
             .map(|s| match s.bodies {
                 [Some(a), Some(b)] if a == b => 1,
                 bodies => bodies.iter().flatten().count(),
             })
             .sum();
-        self.blocks.len() - incidences
+        self.shape.blocks.len() - incidences
     }
 
     /// The elimination order.
     pub fn elimination_order(&self) -> impl Iterator<Item = KktNode> + '_ {
-        self.pivots.iter().map(|p| p.node)
+        self.shape.pivots.iter().map(|p| p.node)
     }
 
     /// The rows dropped as redundant by the last factorisation.
@@ -739,18 +815,22 @@ impl KktSolver {
         let (asm, asm_start) = layout.assembly(&ops, &jac_targets, &written);
         Ok(Self {
             nb,
-            specs: joints.to_vec(),
-            row_off,
-            pivots: layout.pivots,
-            blocks: layout.blocks,
-            ops,
-            jac_targets,
-            diag: vec![0.0; layout.diag_len],
-            scale: vec![0.0; layout.scale_len],
-            offd: vec![0.0; layout.offd_len],
+            shape: Shape {
+                specs: joints.to_vec(),
+                row_off,
+                pivots: layout.pivots,
+                blocks: layout.blocks,
+                ops,
+                jac_targets,
+                asm,
+                asm_start,
+            },
+            num: Numeric {
+                diag: vec![0.0; layout.diag_len],
+                scale: vec![0.0; layout.scale_len],
+                offd: vec![0.0; layout.offd_len],
+            },
             perms: vec![0; layout.scale_len],
-            asm,
-            asm_start,
             dropped: Vec::new(),
             tol: Self::default_redundancy_tolerance(),
             pivoted: false,
@@ -770,18 +850,18 @@ impl KktSolver {
 
     /// Total number of constraint rows.
     pub fn num_rows(&self) -> usize {
-        self.row_off[self.specs.len()]
+        self.shape.row_off[self.shape.specs.len()]
     }
 
     /// First global row of `joint` (its rows are `row_offset(joint) .. row_offset(joint + 1)`;
     /// `joint == joint_specs().len()` gives [`Self::num_rows`]).
     pub fn row_offset(&self, joint: usize) -> usize {
-        self.row_off[joint.min(self.specs.len())]
+        self.shape.row_off[joint.min(self.shape.specs.len())]
     }
 
     /// The joint structure given to [`Self::new`].
     pub fn joint_specs(&self) -> &[JointBlockSpec] {
-        &self.specs
+        &self.shape.specs
     }
 
     /// Numeric factorisation.
@@ -813,16 +893,22 @@ impl KktSolver {
         // its elimination finds the data in cache. The input checks (in the documented order)
         // run only when the fast test fails, or before reporting an error of the factorisation:
         // input errors come first, as if they were checked before anything else.
+        let inputs = FactorInputs {
+            mass,
+            jac,
+            compliance,
+        };
         let mut ok = true;
         let mut work = PivotWork::default();
-        let np = self.pivots.len();
+        let np = self.shape.pivots.len();
         for c0 in (0..np).step_by(ASSEMBLY_CHUNK) {
             let c1 = (c0 + ASSEMBLY_CHUNK).min(np);
-            for ai in self.asm_start[c0]..self.asm_start[c1] {
-                ok &= self.assemble(self.asm[ai], mass, jac, compliance);
+            let (shape, num, _) = self.split();
+            for &item in &shape.asm[shape.asm_start[c0]..shape.asm_start[c1]] {
+                ok &= assemble_item(shape, num, item, &inputs);
             }
             for pi in c0..c1 {
-                let n = self.pivots[pi].dim;
+                let n = self.shape.pivots[pi].dim;
                 if let Err(e) = by_dim!(n, N => self.eliminate::<N>(pi, &mut work)) {
                     self.check_inputs(mass, jac, compliance)?;
                     return Err(e);
@@ -838,42 +924,9 @@ impl KktSolver {
         })
     }
 
-    /// One assembly item; returns whether everything it read is finite (and the compliances
-    /// non-negative).
-    fn assemble(
-        &mut self,
-        item: Assembly,
-        mass: &[[Real; 36]],
-        jac: &[Real],
-        compliance: &[Real],
-    ) -> bool {
-        match item {
-            Assembly::Diag(t) => {
-                let pv = &self.pivots[t];
-                let d = &mut self.diag[pv.diag_off..];
-                let s = &mut self.scale[pv.scale_off..];
-                match pv.node {
-                    KktNode::Body(b) => assemble_body(&mass[b], d, s),
-                    KktNode::Joint(k) => {
-                        let c = &compliance[self.row_off[k]..];
-                        by_dim!(pv.dim, N => assemble_joint::<N>(c, d, s))
-                    }
-                }
-            }
-            Assembly::Jac { joint, slot } => {
-                let (r0, m) = (self.row_off[joint], self.specs[joint].rows);
-                let Some(t) = self.jac_targets[joint][slot] else {
-                    return true;
-                };
-                let src = &jac[JAC_ROW_STRIDE * r0 + BODY_DOFS * slot..];
-                let dst = &mut self.offd[t.off..];
-                by_rows!(m, M => scatter_jac::<M>(src, t, dst), scatter_jac_dyn(m, src, t, dst))
-            }
-            Assembly::Zero(off, len) => {
-                self.offd[off..off + len].fill(0.0);
-                true
-            }
-        }
+    /// The structure, the values and the permutations, borrowed apart.
+    fn split(&mut self) -> (&Shape, &mut Numeric<Real>, &[u8]) {
+        (&self.shape, &mut self.num, &self.perms)
     }
 
     /// The input checks of [`Self::factor`], in order: masses, then each joint's compliance and
@@ -906,8 +959,8 @@ impl KktSolver {
                 });
             }
         }
-        for (k, s) in self.specs.iter().enumerate() {
-            let (r0, r1) = (self.row_off[k], self.row_off[k + 1]);
+        for (k, s) in self.shape.specs.iter().enumerate() {
+            let (r0, r1) = (self.shape.row_off[k], self.shape.row_off[k + 1]);
             let at = KktNode::Joint(k);
             for &c in &compliance[r0..r1] {
                 if !c.is_finite() {
@@ -938,12 +991,12 @@ impl KktSolver {
         pi: usize,
         work: &mut PivotWork,
     ) -> Result<(), KktError> {
-        let pv = self.pivots[pi];
+        let pv = self.shape.pivots[pi];
         let body = matches!(pv.node, KktNode::Body(_));
         let thresh = if body { 64.0 * Real::EPSILON } else { self.tol };
         let rank = match work.factor::<N>(
-            &mut self.diag[pv.diag_off..pv.diag_off + tri(N)],
-            &mut self.scale[pv.scale_off..pv.scale_off + N],
+            &mut self.num.diag[pv.diag_off..pv.diag_off + tri(N)],
+            &mut self.num.scale[pv.scale_off..pv.scale_off + N],
             &mut self.perms[pv.scale_off..pv.scale_off + N],
             thresh,
             body,
@@ -967,72 +1020,19 @@ impl KktSolver {
             }
         }
         self.pivoted |= work.pivoted;
-        if pv.blk_start != pv.blk_end {
-            if work.pivoted {
-                self.schur_update::<N, true>(&pv);
-            } else {
-                self.schur_update::<N, false>(&pv);
-            }
+        let (shape, num, perms) = self.split();
+        if work.pivoted {
+            schur_update::<Real, N, true>(shape, num, perms, &pv);
+        } else {
+            schur_update::<Real, N, false>(shape, num, perms, &pv);
         }
         // The solve uses `L⁻¹` (no dependency chain); nothing downstream in the factorisation
         // waits for it.
-        invert_and_pack::<N>(
-            &mut self.diag[pv.diag_off..pv.diag_off + tri(N)],
-            &self.scale[pv.scale_off..pv.scale_off + N],
+        invert_and_pack::<Real, N>(
+            &mut num.diag[pv.diag_off..pv.diag_off + tri(N)],
+            &num.scale[pv.scale_off..pv.scale_off + N],
         );
         Ok(())
-    }
-
-    /// Schur-complement updates of pivot `pv` (dimension `N`, already factored as
-    /// `Π P Πᵀ = L D Lᵀ`) on its later neighbours: with `Y_j = L⁻¹ Π W_jᵀ` (stored for the
-    /// solve), `D_j -= Y_jᵀ D⁺ Y_j` and `A_jk -= Y_jᵀ D⁺ Y_k` (an overflow shows up as a
-    /// non-finite pivot later).
-    fn schur_update<const N: usize, const P: bool>(&mut self, pv: &Pivot) {
-        // Later pivots' diagonal blocks and scales lie after this one's.
-        let split = pv.diag_off + tri(N);
-        let (head, tail) = self.diag.split_at_mut(split);
-        let ssplit = pv.scale_off + N;
-        let (shead, stail) = self.scale.split_at_mut(ssplit);
-        let fac = Factor::<N, P>::new(
-            &head[pv.diag_off..],
-            &shead[pv.scale_off..],
-            &self.perms[pv.scale_off..],
-        );
-        for blk in &self.blocks[pv.blk_start..pv.blk_end] {
-            let (m, len) = (blk.rows, blk.rows * N);
-            let wy = &mut self.offd[blk.off..blk.off + len];
-            let tgt = &self.pivots[blk.tgt];
-            let d = &mut tail[tgt.diag_off - split..tgt.diag_off - split + tri(m)];
-            let s = &mut stail[tgt.scale_off - ssplit..tgt.scale_off - ssplit + m];
-            by_rows!(m, M => fac.block_update::<M>(wy, d, s), fac.block_update_dyn(m, wy, d, s));
-        }
-        // Off-diagonal (fill) updates A_jk -= Y_jᵀ D⁺ Y_k.
-        for op in &self.ops[pv.op_start..pv.op_end] {
-            let (bk, bj, bd) = (
-                self.blocks[op.k_blk],
-                self.blocks[op.j_blk],
-                self.blocks[op.dst_blk],
-            );
-            let (mj, mk) = (bj.rows, bk.rows);
-            // The destination belongs to a later pivot, so it lies after `p`'s blocks.
-            let (lo, hi) = self.offd.split_at_mut(bd.off);
-            let yk = &lo[bk.off..bk.off + N * mk];
-            let yj = &lo[bj.off..bj.off + N * mj];
-            let dst = &mut hi[..mj * mk];
-            for (a, drow) in dst.chunks_exact_mut(mk).enumerate() {
-                for (((yjc, ykc), &dc), _) in yj
-                    .chunks_exact(mj)
-                    .zip(yk.chunks_exact(mk))
-                    .zip(fac.dinv)
-                    .zip(0..N)
-                {
-                    let c = yjc[a] * dc;
-                    for (x, &v) in drow.iter_mut().zip(ykc) {
-                        *x -= c * v;
-                    }
-                }
-            }
-        }
     }
 
     /// For a joint pivot that dropped rows while still coupled to a body: each dropped direction
@@ -1049,13 +1049,13 @@ impl KktSolver {
         for q in rank..n {
             let v = work.null_vector(n, rank, q);
             let vnorm: Real = v[..n].iter().map(|x| x.abs()).sum();
-            for blk in &self.blocks[pv.blk_start..pv.blk_end] {
+            for blk in &self.shape.blocks[pv.blk_start..pv.blk_end] {
                 if !blk.tgt_body {
                     continue;
                 }
                 // The stored block is `Wᵀ` (`n × m`): the rows of `W` are its columns.
                 let m = blk.rows;
-                let wt = &self.offd[blk.off..blk.off + m * n];
+                let wt = &self.num.offd[blk.off..blk.off + m * n];
                 let wmax = wt.iter().fold(0.0, |a: Real, &x| a.max(x.abs()));
                 for c in 0..m {
                     let wv: Real = wt
@@ -1103,11 +1103,11 @@ impl KktSolver {
     /// The forward and backward substitutions of [`Self::solve`]; `P`: some pivot block's
     /// permutation is not the identity.
     fn substitute<const P: bool>(&self, bodies: &mut [Real], joints: &mut [Real]) {
-        for pv in &self.pivots {
+        for pv in &self.shape.pivots {
             by_dim!(pv.dim, N => self.forward_step::<N, P>(pv, bodies, joints));
         }
         // Backward: x_p = P⁺ (z_p - Σ W_jᵀ x_j) = Πᵀ L⁻ᵀ (u_p - D⁺ Σ Y_jᵀ x_j).
-        for pv in self.pivots.iter().rev() {
+        for pv in self.shape.pivots.iter().rev() {
             by_dim!(pv.dim, N => self.backward_step::<N, P>(pv, bodies, joints));
         }
     }
@@ -1121,11 +1121,11 @@ impl KktSolver {
         bodies: &mut [Real],
         joints: &mut [Real],
     ) {
-        let fac = Packed::<N, P>::new(&self.diag[pv.diag_off..], &self.perms[pv.scale_off..]);
+        let fac = Packed::<N, P>::new(&self.num.diag[pv.diag_off..], &self.perms[pv.scale_off..]);
         let slot = seg(pv.rhs, N, bodies, joints);
         let u = fac.scaled_into(fac.lower_solve(slot), slot);
-        for blk in &self.blocks[pv.blk_start..pv.blk_end] {
-            let y = &self.offd[blk.off..blk.off + blk.rows * N];
+        for blk in &self.shape.blocks[pv.blk_start..pv.blk_end] {
+            let y = &self.num.offd[blk.off..blk.off + blk.rows * N];
             let r = seg(blk.rhs, blk.rows, bodies, joints);
             by_rows!(blk.rows, M => sub_mat_t_vec::<N, M>(y, &u, r), sub_mat_t_vec_dyn::<N>(y, &u, r));
         }
@@ -1138,10 +1138,10 @@ impl KktSolver {
         bodies: &mut [Real],
         joints: &mut [Real],
     ) {
-        let fac = Packed::<N, P>::new(&self.diag[pv.diag_off..], &self.perms[pv.scale_off..]);
+        let fac = Packed::<N, P>::new(&self.num.diag[pv.diag_off..], &self.perms[pv.scale_off..]);
         let mut acc = [0.0; N];
-        for blk in &self.blocks[pv.blk_start..pv.blk_end] {
-            let y = &self.offd[blk.off..blk.off + blk.rows * N];
+        for blk in &self.shape.blocks[pv.blk_start..pv.blk_end] {
+            let y = &self.num.offd[blk.off..blk.off + blk.rows * N];
             let x = seg(blk.rhs, blk.rows, bodies, joints);
             by_rows!(blk.rows, M => add_mat_vec::<N, M>(y, x, &mut acc), add_mat_vec_dyn::<N>(y, x, &mut acc));
         }
@@ -1156,20 +1156,20 @@ impl KktSolver {
 
 /// The factors of one pivot block (`Π P Πᵀ = L D Lᵀ`, `P` of dimension `N`) as the
 /// factorisation left them, viewed for the fixed-size kernels of the Schur updates.
-struct Factor<'a, const N: usize, const P: bool> {
+struct Factor<'a, T, const N: usize, const P: bool> {
     /// `L` strictly below the diagonal, in the packed lower layout of the diagonal blocks
     /// (`(i, k)` at `tri(i) + k`; the diagonal is not read).
-    l: &'a [Real],
+    l: &'a [T],
     /// `D⁺`: `1 / d_k` for the kept pivots, `0` for the dropped ones.
-    dinv: &'a [Real],
+    dinv: &'a [T],
     /// `perm[i]` is the original row of position `i` (see [`Self::row`]).
     perm: &'a [u8],
 }
 
-impl<'a, const N: usize, const P: bool> Factor<'a, N, P> {
+impl<'a, T: Lane, const N: usize, const P: bool> Factor<'a, T, N, P> {
     /// The factors stored at the start of `l`, `dinv` and `perm` by [`PivotWork::factor`].
     #[inline(always)]
-    fn new(l: &'a [Real], dinv: &'a [Real], perm: &'a [u8]) -> Self {
+    fn new(l: &'a [T], dinv: &'a [T], perm: &'a [u8]) -> Self {
         Self {
             l: &l[..tri(N)],
             dinv: &dinv[..N],
@@ -1191,51 +1191,80 @@ impl<'a, const N: usize, const P: bool> Factor<'a, N, P> {
         clippy::needless_range_loop,
         reason = "index loops with compile-time bounds, fully unrolled"
     )]
-    fn block_update<const M: usize>(&self, wy: &mut [Real], d: &mut [Real], s: &mut [Real]) {
+    fn block_update<const M: usize>(&self, wy: &mut [T], d: &mut [T], s: &mut [T]) {
         // Fixed-size views, so that every loop below has compile-time bounds.
         let (y, _) = wy[..N * M].as_chunks_mut::<M>();
         let d = &mut d[..tri(M)];
         let s = &mut s[..M];
-        let mut yt = [[0.0; M]; N];
-        for i in 0..N {
-            yt[i] = y[self.row(i)];
+        if T::IN_PLACE && !P {
+            // Lanes: no copies of the block (see `Lane::IN_PLACE`), the same arithmetic.
+            let y = &mut y[..N];
+            self.substitute_block(y);
+            for a in 0..M {
+                let ych: [T; N] = std::array::from_fn(|k| y[k][a] * self.dinv[k]);
+                for b in 0..=a {
+                    let yc: [T; N] = std::array::from_fn(|k| y[k][b]);
+                    self.update_entry(d, s, a, b, &ych, &yc);
+                }
+            }
+            return;
         }
+        let mut yt: [[T; M]; N] = std::array::from_fn(|i| y[self.row(i)]);
+        self.substitute_block(&mut yt);
+        y[..N].copy_from_slice(&yt);
+        let yc: [[T; N]; M] = std::array::from_fn(|b| std::array::from_fn(|k| yt[k][b]));
+        let ych: [[T; N]; M] =
+            std::array::from_fn(|b| std::array::from_fn(|k| yt[k][b] * self.dinv[k]));
+        for a in 0..M {
+            for b in 0..=a {
+                self.update_entry(d, s, a, b, &ych[a], &yc[b]);
+            }
+        }
+    }
+
+    /// `Y = L⁻¹ y` in place, for the `N` rows of `y` in pivot order.
+    #[inline(always)]
+    #[allow(
+        clippy::needless_range_loop,
+        reason = "index loops with compile-time bounds, fully unrolled"
+    )]
+    fn substitute_block<const M: usize>(&self, y: &mut [[T; M]]) {
         for k in 0..N {
             for i in 0..N {
                 if i > k {
                     let c = self.l[tri(i) + k];
                     for b in 0..M {
-                        yt[i][b] -= c * yt[k][b];
+                        let t = y[k][b];
+                        y[i][b] -= c * t;
                     }
                 }
             }
         }
-        y[..N].copy_from_slice(&yt);
-        // D -= Yᵀ D⁺ Y, lower triangle only (the diagonal blocks are only read there, see
-        // [`PivotWork::factor`]), as dot products of the columns of `Y`.
-        let mut yc = [[0.0; N]; M];
-        let mut ych = [[0.0; N]; M];
-        for k in 0..N {
-            for b in 0..M {
-                yc[b][k] = yt[k][b];
-                ych[b][k] = yt[k][b] * self.dinv[k];
-            }
-        }
-        for a in 0..M {
-            for b in 0..M {
-                if b < a {
-                    d[tri(a) + b] -= dot_n::<N>(&ych[a], &yc[b]);
-                }
-            }
-            let v = dot_n::<N>(&ych[a], &yc[a]);
-            d[tri(a) + a] -= v;
+    }
+
+    /// Entry `(a, b)` (`b <= a`) of `D -= Yᵀ D⁺ Y` (lower triangle only: the diagonal blocks
+    /// are only read there, see [`PivotWork::factor`]), from column `a` of `Y` scaled by `D⁺`
+    /// and column `b`; on the diagonal also `s += |diag(Yᵀ D⁺ Y)|`.
+    #[inline(always)]
+    fn update_entry(
+        &self,
+        d: &mut [T],
+        s: &mut [T],
+        a: usize,
+        b: usize,
+        ych: &[T; N],
+        yc: &[T; N],
+    ) {
+        let v = dot_n::<T, N>(ych, yc);
+        d[tri(a) + b] -= v;
+        if a == b {
             s[a] += v.abs();
         }
     }
 
     /// [`Self::block_update`] for a block of `m <= MAX_DIM` columns (any size).
-    fn block_update_dyn(&self, m: usize, wy: &mut [Real], d: &mut [Real], s: &mut [Real]) {
-        let mut yt = [[0.0; MAX_DIM]; N];
+    fn block_update_dyn(&self, m: usize, wy: &mut [T], d: &mut [T], s: &mut [T]) {
+        let mut yt = [[T::ZERO; MAX_DIM]; N];
         for (i, row) in yt.iter_mut().enumerate() {
             let p = self.row(i);
             row[..m].copy_from_slice(&wy[p * m..p * m + m]);
@@ -1255,13 +1284,115 @@ impl<'a, const N: usize, const P: bool> Factor<'a, N, P> {
         // Lower triangle (packed), like `block_update`.
         for a in 0..m {
             for b in 0..=a {
-                let mut v = 0.0;
+                let mut v = T::ZERO;
                 for (row, &dk) in yt.iter().zip(self.dinv) {
                     v += row[a] * dk * row[b];
                 }
                 d[tri(a) + b] -= v;
                 if b == a {
                     s[a] += v.abs();
+                }
+            }
+        }
+    }
+}
+
+/// One assembly item into `num`; returns whether everything it read is finite (and the
+/// compliances non-negative).
+#[inline]
+fn assemble_item<T: Lane, I: Inputs<T>>(
+    shape: &Shape,
+    num: &mut Numeric<T>,
+    item: Assembly,
+    inputs: &I,
+) -> bool {
+    match item {
+        Assembly::Diag(t) => {
+            let pv = &shape.pivots[t];
+            let d = &mut num.diag[pv.diag_off..];
+            let s = &mut num.scale[pv.scale_off..];
+            match pv.node {
+                KktNode::Body(b) => assemble_body(inputs.mass(b), d, s),
+                KktNode::Joint(k) => {
+                    let r0 = shape.row_off[k];
+                    by_dim!(pv.dim, N => assemble_joint::<T, N>(inputs.compliance::<N>(r0), d, s))
+                }
+            }
+        }
+        Assembly::Jac { joint, slot } => {
+            let (r0, m) = (shape.row_off[joint], shape.specs[joint].rows);
+            let Some(t) = shape.jac_targets[joint][slot] else {
+                return true;
+            };
+            let base = JAC_ROW_STRIDE * r0 + BODY_DOFS * slot;
+            let dst = &mut num.offd[t.off..];
+            by_rows!(
+                m,
+                M => scatter_jac::<T, M>(inputs.jac_rows::<M>(base), t, dst),
+                scatter_jac_dyn(m, inputs.jac(base), t, dst)
+            )
+        }
+        Assembly::Zero(off, len) => {
+            num.offd[off..off + len].fill(T::ZERO);
+            true
+        }
+    }
+}
+
+/// Schur-complement updates of pivot `pv` (dimension `N`, already factored as
+/// `Π P Πᵀ = L D Lᵀ`) on its later neighbours: with `Y_j = L⁻¹ Π W_jᵀ` (stored for the
+/// solve), `D_j -= Y_jᵀ D⁺ Y_j` and `A_jk -= Y_jᵀ D⁺ Y_k` (an overflow shows up as a
+/// non-finite pivot later).
+fn schur_update<T: Lane, const N: usize, const P: bool>(
+    shape: &Shape,
+    num: &mut Numeric<T>,
+    perms: &[u8],
+    pv: &Pivot,
+) {
+    if pv.blk_start == pv.blk_end {
+        return;
+    }
+    // Later pivots' diagonal blocks and scales lie after this one's.
+    let split = pv.diag_off + tri(N);
+    let (head, tail) = num.diag.split_at_mut(split);
+    let ssplit = pv.scale_off + N;
+    let (shead, stail) = num.scale.split_at_mut(ssplit);
+    let fac = Factor::<T, N, P>::new(
+        &head[pv.diag_off..],
+        &shead[pv.scale_off..],
+        &perms[pv.scale_off..],
+    );
+    for blk in &shape.blocks[pv.blk_start..pv.blk_end] {
+        let (m, len) = (blk.rows, blk.rows * N);
+        let wy = &mut num.offd[blk.off..blk.off + len];
+        let tgt = &shape.pivots[blk.tgt];
+        let d = &mut tail[tgt.diag_off - split..tgt.diag_off - split + tri(m)];
+        let s = &mut stail[tgt.scale_off - ssplit..tgt.scale_off - ssplit + m];
+        by_rows!(m, M => fac.block_update::<M>(wy, d, s), fac.block_update_dyn(m, wy, d, s));
+    }
+    // Off-diagonal (fill) updates A_jk -= Y_jᵀ D⁺ Y_k.
+    for op in &shape.ops[pv.op_start..pv.op_end] {
+        let (bk, bj, bd) = (
+            shape.blocks[op.k_blk],
+            shape.blocks[op.j_blk],
+            shape.blocks[op.dst_blk],
+        );
+        let (mj, mk) = (bj.rows, bk.rows);
+        // The destination belongs to a later pivot, so it lies after `p`'s blocks.
+        let (lo, hi) = num.offd.split_at_mut(bd.off);
+        let yk = &lo[bk.off..bk.off + N * mk];
+        let yj = &lo[bj.off..bj.off + N * mj];
+        let dst = &mut hi[..mj * mk];
+        for (a, drow) in dst.chunks_exact_mut(mk).enumerate() {
+            for (((yjc, ykc), &dc), _) in yj
+                .chunks_exact(mj)
+                .zip(yk.chunks_exact(mk))
+                .zip(fac.dinv)
+                .zip(0..N)
+            {
+                let c = yjc[a] * dc;
+                for (x, &v) in drow.iter_mut().zip(ykc) {
+                    *x -= c * v;
                 }
             }
         }
@@ -1302,7 +1433,7 @@ fn sub_mat_t_vec_dyn<const N: usize>(y: &[Real], u: &[Real; N], r: &mut [Real]) 
 fn add_mat_vec<const N: usize, const M: usize>(y: &[Real], x: &[Real], acc: &mut [Real; N]) {
     let (y, x) = (&y[..N * M], &x[..M]);
     for (a, yrow) in acc.iter_mut().zip(y.chunks_exact(M)) {
-        *a += dot_n::<M>(yrow, x);
+        *a += dot_n::<Real, M>(yrow, x);
     }
 }
 
@@ -1321,24 +1452,25 @@ fn add_mat_vec_dyn<const N: usize>(y: &[Real], x: &[Real], acc: &mut [Real; N]) 
     clippy::needless_range_loop,
     reason = "index loops with compile-time bounds, fully unrolled"
 )]
-fn assemble_body(m: &[Real; 36], d: &mut [Real], s: &mut [Real]) -> bool {
+fn assemble_body<T: Lane>(m: impl Fn(usize) -> T, d: &mut [T], s: &mut [T]) -> bool {
     let (d, s) = (&mut d[..tri(6)], &mut s[..6]);
+    let half = T::splat(0.5);
     for i in 0..6 {
         for j in 0..6 {
             if j <= i {
-                d[tri(i) + j] = 0.5 * (m[i * 6 + j] + m[j * 6 + i]);
+                d[tri(i) + j] = half * (m(i * 6 + j) + m(j * 6 + i));
             }
         }
         s[i] = d[tri(i) + i].abs();
     }
     // `v * 0` is `±0` for finite `v` and NaN otherwise.
-    let mut chk = [0.0; 6];
-    for row in m.chunks_exact(6) {
-        for (c, &v) in chk.iter_mut().zip(row) {
-            *c += v * 0.0;
+    let mut chk = [T::ZERO; 6];
+    for i in 0..6 {
+        for (j, c) in chk.iter_mut().enumerate() {
+            *c += m(i * 6 + j) * T::ZERO;
         }
     }
-    chk.iter().all(|&c| c == 0.0)
+    chk.iter().all(|&c| T::all(c.eq(T::ZERO)))
 }
 
 /// Assembles the diagonal block `d` (`-diag(c)`, `N × N`, packed lower triangle) and the scales
@@ -1348,14 +1480,15 @@ fn assemble_body(m: &[Real; 36], d: &mut [Real], s: &mut [Real]) -> bool {
     clippy::needless_range_loop,
     reason = "index loops with compile-time bounds, fully unrolled"
 )]
-fn assemble_joint<const N: usize>(c: &[Real], d: &mut [Real], s: &mut [Real]) -> bool {
-    let (c, d, s) = (&c[..N], &mut d[..tri(N)], &mut s[..N]);
+fn assemble_joint<T: Lane, const N: usize>(c: [T; N], d: &mut [T], s: &mut [T]) -> bool {
+    let (d, s) = (&mut d[..tri(N)], &mut s[..N]);
     let mut ok = true;
-    d.fill(0.0);
+    d.fill(T::ZERO);
     for i in 0..N {
-        d[tri(i) + i] = -c[i];
-        s[i] = c[i];
-        ok &= (0.0..=Real::MAX).contains(&c[i]);
+        let ci = c[i];
+        d[tri(i) + i] = -ci;
+        s[i] = ci;
+        ok &= T::all(T::and(ci.ge(T::ZERO), ci.le(T::splat(Real::MAX))));
     }
     ok
 }
@@ -1368,13 +1501,15 @@ fn assemble_joint<const N: usize>(c: &[Real], d: &mut [Real], s: &mut [Real]) ->
     clippy::needless_range_loop,
     reason = "index loops with compile-time bounds, fully unrolled"
 )]
-fn scatter_jac<const M: usize>(src: &[Real], t: JacTarget, dst: &mut [Real]) -> bool {
-    let mut rows = [[0.0; BODY_DOFS]; M];
-    let mut chk = [0.0; BODY_DOFS];
-    for (i, row) in rows.iter_mut().enumerate() {
-        row.copy_from_slice(&src[JAC_ROW_STRIDE * i..JAC_ROW_STRIDE * i + BODY_DOFS]);
+fn scatter_jac<T: Lane, const M: usize>(
+    rows: [[T; BODY_DOFS]; M],
+    t: JacTarget,
+    dst: &mut [T],
+) -> bool {
+    let mut chk = [T::ZERO; BODY_DOFS];
+    for row in &rows {
         for (c, &v) in chk.iter_mut().zip(row.iter()) {
-            *c += v * 0.0;
+            *c += v * T::ZERO;
         }
     }
     let dst = &mut dst[..BODY_DOFS * M];
@@ -1406,17 +1541,26 @@ fn scatter_jac<const M: usize>(src: &[Real], t: JacTarget, dst: &mut [Real]) -> 
             }
         }
     }
-    chk.iter().all(|&c| c == 0.0)
+    chk.iter().all(|&c| T::all(c.eq(T::ZERO)))
 }
 
 /// [`scatter_jac`] for `m` rows (any number).
-fn scatter_jac_dyn(m: usize, src: &[Real], t: JacTarget, dst: &mut [Real]) -> bool {
-    let mut chk = [0.0; BODY_DOFS];
+#[allow(
+    clippy::needless_range_loop,
+    reason = "the column indexes the source, the check and the destination"
+)]
+fn scatter_jac_dyn<T: Lane>(
+    m: usize,
+    src: impl Fn(usize) -> T,
+    t: JacTarget,
+    dst: &mut [T],
+) -> bool {
+    let mut chk = [T::ZERO; BODY_DOFS];
     let dst = &mut dst[..BODY_DOFS * m];
     for i in 0..m {
-        let row = &src[JAC_ROW_STRIDE * i..JAC_ROW_STRIDE * i + BODY_DOFS];
-        for (c, &v) in row.iter().enumerate() {
-            chk[c] += v * 0.0;
+        for c in 0..BODY_DOFS {
+            let v = src(JAC_ROW_STRIDE * i + c);
+            chk[c] += v * T::ZERO;
             let idx = if t.transposed {
                 c * m + i
             } else {
@@ -1429,7 +1573,7 @@ fn scatter_jac_dyn(m: usize, src: &[Real], t: JacTarget, dst: &mut [Real]) -> bo
             }
         }
     }
-    chk.iter().all(|&c| c == 0.0)
+    chk.iter().all(|&c| T::all(c.eq(T::ZERO)))
 }
 
 fn check_len(what: &'static str, expected: usize, got: usize) -> Result<(), KktError> {
@@ -1462,7 +1606,7 @@ fn seg<'a>(
 /// Dot product of the first `N` entries (a compile-time length, so the loop is unrolled),
 /// summed in two interleaved halves so that it vectorises.
 #[inline(always)]
-fn dot_n<const N: usize>(a: &[Real], b: &[Real]) -> Real {
+fn dot_n<T: Lane, const N: usize>(a: &[T], b: &[T]) -> T {
     let (a, b) = (&a[..N], &b[..N]);
     if N == 1 {
         return a[0] * b[0];
@@ -1493,9 +1637,9 @@ fn dot(a: &[Real], b: &[Real]) -> Real {
     clippy::needless_range_loop,
     reason = "index loops with compile-time bounds, fully unrolled"
 )]
-fn invert_and_pack<const N: usize>(a: &mut [Real], dinv: &[Real]) {
+fn invert_and_pack<T: Lane, const N: usize>(a: &mut [T], dinv: &[T]) {
     let a = &mut a[..tri(N)];
-    let mut w = [[0.0; N]; N];
+    let mut w = [[T::ZERO; N]; N];
     for i in 0..N {
         for j in 0..N {
             if j < i {
@@ -1642,28 +1786,79 @@ const fn tri(n: usize) -> usize {
 
 /// `Some(NonFinite)` if some entry of `v` is NaN or infinite.
 #[inline(always)]
-fn not_finite<const N: usize>(v: &[Real; N]) -> Option<PivotFail> {
-    let mut bad = false;
+fn not_finite<T: Lane, const N: usize>(v: &[T; N]) -> Option<PivotFail> {
+    let mut good = true;
     for &x in v {
-        bad |= !x.is_finite();
+        good &= T::all(x.finite());
     }
-    bad.then_some(PivotFail::NonFinite)
+    (!good).then_some(PivotFail::NonFinite)
 }
 
 /// State of the pivoted `LDLᵀ` of one `N × N` block, see [`PivotWork::factor`].
-struct Ldl<'a, const N: usize> {
+struct Ldl<'a, T, const N: usize> {
     /// The block, worked on in place (packed lower triangle, see [`tri`]): `L` in the eliminated
     /// columns, the Schur complement in the others.
-    w: &'a mut [Real],
+    w: &'a mut [T],
     /// `1 / s` by position.
-    inv_s: [Real; N],
+    inv_s: [T; N],
     /// `perm[i]` is the original index of position `i`.
     perm: [usize; N],
     /// `1 / d` of the eliminated steps.
-    dinv: [Real; N],
+    dinv: [T; N],
 }
 
-impl<const N: usize> Ldl<'_, N> {
+impl<'a, T: Lane, const N: usize> Ldl<'a, T, N> {
+    /// The block `a` (packed lower triangle, worked on in place) with its scales `s`
+    /// (`1 / s`, or 0 for a zero scale, by position), in its original order.
+    #[inline(always)]
+    fn new(a: &'a mut [T], s: &[T]) -> Self {
+        let mut inv_s = [T::ZERO; N];
+        for (is, &sc) in inv_s.iter_mut().zip(s) {
+            *is = T::select(sc.gt(T::ZERO), T::splat(1.0) / sc, T::ZERO);
+        }
+        Self {
+            w: &mut a[..tri(N)],
+            inv_s,
+            perm: std::array::from_fn(|i| i),
+            dinv: [T::ZERO; N],
+        }
+    }
+
+    /// The body block's unpivoted steps ([`Self::step_spd`]): the rank reached (`N`, or the
+    /// first step whose scaled pivot is not above `thresh`).
+    #[inline(always)]
+    fn spd(&mut self, thresh: Real) -> Result<usize, PivotFail> {
+        let mut rank = N;
+        macro_rules! steps {
+            ($($k:literal)*) => {
+                $(
+                    if $k < N && rank == N && !self.step_spd::<$k>(thresh)? {
+                        rank = $k;
+                    }
+                )*
+            };
+        }
+        steps!(0 1 2 3 4 5 6 7 8 9 10 11);
+        Ok(rank)
+    }
+
+    /// A joint block's unpivoted attempt (see [`PivotWork::factor`]): whether every step's
+    /// scaled pivot kept the product of them above `2 thresh`.
+    #[inline(always)]
+    fn definite(&mut self, thresh: Real) -> bool {
+        let (mut unpivoted, mut prod) = (true, T::splat(1.0));
+        let floor = T::splat(2.0 * thresh);
+        macro_rules! definite {
+            ($($k:literal)*) => {
+                $(
+                    unpivoted = unpivoted && ($k >= N || self.step_definite::<$k>(&mut prod, floor));
+                )*
+            };
+        }
+        definite!(0 1 2 3 4 5 6 7 8 9 10 11);
+        unpivoted
+    }
+
     /// Step `K` (`< N`) of a body block, symmetric positive definite: no pivot search (the
     /// unpivoted `LDLᵀ` of a positive definite matrix is backward stable), position `K`
     /// eliminated as it stands. Returns `false` when its scaled pivot `d_K / s_K` is not above
@@ -1680,14 +1875,15 @@ impl<const N: usize> Ldl<'_, N> {
         }
         let d = w[tri(K) + K];
         // `d * 0` is `±0` for finite `d` and NaN otherwise.
-        if d * 0.0 != 0.0 {
+        if !T::all((d * T::ZERO).eq(T::ZERO)) {
             return Err(PivotFail::NonFinite);
         }
+        // Not above `thresh`, or NaN.
         let ratio = d * self.inv_s[K];
-        if ratio.is_nan() || ratio <= thresh {
+        if !T::all(ratio.gt(T::splat(thresh))) {
             return Ok(false);
         }
-        let id = 1.0 / d;
+        let id = T::splat(1.0) / d;
         self.dinv[K] = id;
         self.eliminate_column::<K>(id);
         Ok(true)
@@ -1698,18 +1894,18 @@ impl<const N: usize> Ldl<'_, N> {
     /// `|d_K| / s_K` when the product stays above `floor`, and returns whether it did (`false`
     /// also for a non-finite pivot, which the pivoted factorisation then reports).
     #[inline(always)]
-    fn step_definite<const K: usize>(&mut self, prod: &mut Real, floor: Real) -> bool {
+    fn step_definite<const K: usize>(&mut self, prod: &mut T, floor: T) -> bool {
         if K >= N {
             return false;
         }
         let d = self.w[tri(K) + K];
         let p = *prod * (d.abs() * self.inv_s[K]);
         // NaN and infinities fail one of the tests.
-        if p.is_nan() || p <= floor || !d.is_finite() {
+        if !T::all(T::and(p.gt(floor), d.finite())) {
             return false;
         }
         *prod = p;
-        let id = 1.0 / d;
+        let id = T::splat(1.0) / d;
         self.dinv[K] = id;
         self.eliminate_column::<K>(id);
         true
@@ -1722,7 +1918,7 @@ impl<const N: usize> Ldl<'_, N> {
         clippy::needless_range_loop,
         reason = "index loops with compile-time bounds, fully unrolled"
     )]
-    fn eliminate_column<const K: usize>(&mut self, id: Real) {
+    fn eliminate_column<const K: usize>(&mut self, id: T) {
         let w = &mut self.w[..tri(N)];
         // Rows in increasing order: for `j < i` the column entry `(j, K)` is already `l_j`,
         // and `A_ij - l_i d l_j = A_ij - A_iK l_j`.
@@ -1738,7 +1934,9 @@ impl<const N: usize> Ldl<'_, N> {
             w[tri(i) + K] = li;
         }
     }
+}
 
+impl<const N: usize> Ldl<'_, Real, N> {
     /// Step `K` (`< N`) of a joint block: chooses the pivot among positions `K..N` (largest
     /// `|d_i| / s_i`, first position on ties, NaN never chosen), moves it to position `K` and
     /// eliminates it. Returns `false` (nothing changed) when the largest scaled pivot is
@@ -1879,31 +2077,11 @@ impl PivotWork {
         body: bool,
     ) -> Result<usize, PivotFail> {
         // Worked on in place.
-        let w = &mut a[..tri(N)];
-        let mut inv_s = [0.0; N];
-        for (is, &sc) in inv_s.iter_mut().zip(&*sd) {
-            *is = if sc > 0.0 { 1.0 / sc } else { 0.0 };
-        }
-        let mut st = Ldl {
-            w,
-            inv_s,
-            perm: std::array::from_fn(|i| i),
-            dinv: [0.0; N],
-        };
+        let mut st = Ldl::<Real, N>::new(a, sd);
         let mut rank = N;
-        // The steps, unrolled (each one has compile-time loop bounds).
-        macro_rules! steps {
-            ($step:ident, $($k:literal)*) => {
-                $(
-                    if $k < N && rank == N && !st.$step::<$k>(thresh)? {
-                        rank = $k;
-                    }
-                )*
-            };
-        }
         if body {
             self.pivoted = false;
-            steps!(step_spd, 0 1 2 3 4 5 6 7 8 9 10 11);
+            rank = st.spd(thresh)?;
         } else {
             // The block for the pivoted factorisation: `N × N` holds its `tri(N)` reals (a
             // length of `tri(N)` is not a type on stable Rust), filled entry by entry (zeroing
@@ -1911,22 +2089,22 @@ impl PivotWork {
             let saved: [[Real; N]; N] = std::array::from_fn(|i| {
                 std::array::from_fn(|j| st.w.get(i * N + j).copied().unwrap_or(0.0))
             });
-            let (mut unpivoted, mut prod) = (true, 1.0);
-            let floor = 2.0 * thresh;
-            macro_rules! definite {
-                ($($k:literal)*) => {
-                    $(
-                        unpivoted = unpivoted
-                            && ($k >= N || st.step_definite::<$k>(&mut prod, floor));
-                    )*
-                };
-            }
-            definite!(0 1 2 3 4 5 6 7 8 9 10 11);
+            let unpivoted = st.definite(thresh);
             self.pivoted = !unpivoted;
             if !unpivoted {
                 st.w.copy_from_slice(&saved.as_flattened()[..tri(N)]);
                 st.dinv = [0.0; N];
-                steps!(step, 0 1 2 3 4 5 6 7 8 9 10 11);
+                // The steps, unrolled (each one has compile-time loop bounds).
+                macro_rules! steps {
+                    ($($k:literal)*) => {
+                        $(
+                            if $k < N && rank == N && !st.step::<$k>(thresh)? {
+                                rank = $k;
+                            }
+                        )*
+                    };
+                }
+                steps!(0 1 2 3 4 5 6 7 8 9 10 11);
             }
         }
         let Ldl { w, perm, dinv, .. } = st;
@@ -2268,6 +2446,87 @@ mod tests {
             check_against_dense(&random_problem(&mut rng, 8, &tree_joints(), 0.0));
             check_against_dense(&random_problem(&mut rng, 3, &loop_joints(), 0.0));
         }
+    }
+
+    #[test]
+    fn lanes_factor_as_the_scalar_solver_does() {
+        // Four systems of one structure factored in lanes (`factor_lanes`) against each
+        // factored on its own (`factor`): every lane runs the scalar operations in the same
+        // order, so the stored factors, and the solves from them, must be equal to the bit
+        // (no tolerance). Structures: a chain with joints of 1 to 6 rows, a branching tree,
+        // and a loop (fill blocks); compliance 0 and 1e-10.
+        let mut rng = Lcg(7);
+        let chain = chain_joints(6, |k| 1 + (k * 7 + 3) % 6);
+        let bits = |v: &[Real]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        for (nb, joints) in [(6, chain), (8, tree_joints()), (3, loop_joints())] {
+            for comp in [0.0, 1e-10] {
+                let ps: Vec<Problem> = (0..4)
+                    .map(|_| random_problem(&mut rng, nb, &joints, comp))
+                    .collect();
+                let fresh = KktSolver::new(nb, &ps[0].specs).unwrap();
+                let mut lanes: Vec<KktSolver> = (0..4).map(|_| fresh.clone()).collect();
+                let inputs: [FactorInputs; 4] = std::array::from_fn(|l| FactorInputs {
+                    mass: &ps[l].mass,
+                    jac: &ps[l].jac,
+                    compliance: &ps[l].comp,
+                });
+                let [a, b, c, d] = &mut lanes[..] else {
+                    unreachable!()
+                };
+                assert!(KktSolver::factor_lanes(
+                    [a, b, c, d],
+                    &mut KktLanes::default(),
+                    inputs
+                ));
+                for (p, l) in ps.iter().zip(&lanes) {
+                    let (s, rep, x, lambda) = p.sparse_solve();
+                    assert_eq!(rep.redundant_rows, 0);
+                    assert!(l.factored && !l.pivoted && l.dropped.is_empty());
+                    assert_eq!(bits(&l.num.diag), bits(&s.num.diag));
+                    assert_eq!(bits(&l.num.offd), bits(&s.num.offd));
+                    assert_eq!(l.perms, s.perms);
+                    let (mut xl, mut ll) = (p.f.clone(), p.g.clone());
+                    l.solve(&mut xl, &mut ll).unwrap();
+                    assert_eq!(bits(xl.as_flattened()), bits(x.as_flattened()));
+                    assert_eq!(bits(&ll), bits(&lambda));
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn lanes_leave_a_block_that_needs_pivoting_to_the_scalar_path() {
+        // One lane's joint has two equal rows: its block fails the unpivoted test (it is
+        // pivoted, and a row dropped, by `factor`). The lanes must then refuse, leaving every
+        // solver as it was (not factored), and the scalar path reports the dropped row.
+        let mut rng = Lcg(11);
+        let joints = tree_joints();
+        let mut ps: Vec<Problem> = (0..4)
+            .map(|_| random_problem(&mut rng, 8, &joints, 0.0))
+            .collect();
+        // Joint 1 (5 rows from global row 6): its second row a copy of its first.
+        let r0 = 6;
+        let row: Vec<Real> = ps[2].jac[JAC_ROW_STRIDE * r0..JAC_ROW_STRIDE * (r0 + 1)].to_vec();
+        ps[2].jac[JAC_ROW_STRIDE * (r0 + 1)..JAC_ROW_STRIDE * (r0 + 2)].copy_from_slice(&row);
+        let fresh = KktSolver::new(8, &ps[0].specs).unwrap();
+        let mut lanes: Vec<KktSolver> = (0..4).map(|_| fresh.clone()).collect();
+        let inputs: [FactorInputs; 4] = std::array::from_fn(|l| FactorInputs {
+            mass: &ps[l].mass,
+            jac: &ps[l].jac,
+            compliance: &ps[l].comp,
+        });
+        let [a, b, c, d] = &mut lanes[..] else {
+            unreachable!()
+        };
+        assert!(!KktSolver::factor_lanes(
+            [a, b, c, d],
+            &mut KktLanes::default(),
+            inputs
+        ));
+        assert!(lanes.iter().all(|l| !l.factored));
+        let (s, rep, _, _) = ps[2].sparse_solve();
+        assert!(s.pivoted);
+        assert_eq!(rep.redundant_rows, 1);
     }
 
     #[test]

@@ -1,0 +1,193 @@
+//! Islands of one structure stepped four at a time, their factorisations in SIMD lanes.
+//!
+//! Many scenes repeat a mechanism: the mixed scene's arms are copies of one five-body arm, a
+//! crowd of ragdolls or a row of doors are copies of one another. Islands whose KKT systems
+//! have the same structure ([`KktSolver::same_structure`]: the same bodies and joint blocks)
+//! and that come one after another in the island list form a *lane group* of [`LANES`]. When
+//! all four take the plain kernel ([`Island::lane_ready`]) in a step, their substeps run in
+//! lockstep: each island's stages up to the factorisation at `q_(n+1)` as its own
+//! ([`Island::before_factor`]), the four factorisations at once in the lanes of one SIMD register
+//! ([`KktSolver::factor_lanes`]), then each island's velocity projection
+//! ([`Island::after_factor`]). Each lane runs the scalar factorisation's operations in the
+//! same order, so every island ends its step where it would alone, to the bit
+//! (`tests/island_lanes.rs`). A group in which some lane's block needs what the lanes leave
+//! to the scalar path (pivoting, a non-finite value) is factored island by island in that
+//! substep.
+//!
+//! Where the islands differ in kind (an arm with a stop or a spring among plain ones) or in
+//! structure, they step one by one as before. An error in a group stops the step at the
+//! first island and substep that meets one (the world rolls the step back), where one by one
+//! it stops at the first island that meets one.
+
+use crate::error::Error;
+use crate::joint_set::JointSet;
+use crate::math::Real;
+use crate::math::rapier::dynamics::RigidBodySet;
+use crate::solver::kkt::{FactorInputs, FactorReport, KktLanes, KktSolver};
+use crate::solver::lane::LANES;
+
+use super::Island;
+
+/// The islands split into units, in order: a lane group of [`LANES`] islands of one structure
+/// with its lanes' scratch from `pool` (grown to the number of groups), or a single island.
+pub(super) fn units<'a>(
+    islands: &'a mut [Island],
+    pool: &'a mut Vec<KktLanes>,
+) -> Vec<(&'a mut [Island], Option<&'a mut KktLanes>)> {
+    let mut lens = Vec::new();
+    let mut i = 0;
+    while i < islands.len() {
+        let len = if groups_at(islands, i) { LANES } else { 1 };
+        lens.push(len);
+        i += len;
+    }
+    let groups = lens.iter().filter(|&&l| l == LANES).count();
+    if pool.len() < groups {
+        pool.resize_with(groups, KktLanes::default);
+    }
+    let mut scratch = pool.iter_mut();
+    let mut rest = islands;
+    let mut out = Vec::with_capacity(lens.len());
+    for len in lens {
+        let (unit, tail) = rest.split_at_mut(len);
+        rest = tail;
+        let lanes = if len == LANES { scratch.next() } else { None };
+        out.push((unit, lanes));
+    }
+    out
+}
+
+/// The [`LANES`] islands from `i` on have rows and one KKT structure.
+fn groups_at(islands: &[Island], i: usize) -> bool {
+    let Some(unit) = islands.get(i..i + LANES) else {
+        return false;
+    };
+    let Some(first) = unit[0].kkt.as_ref() else {
+        return false;
+    };
+    unit[1..]
+        .iter()
+        .all(|x| x.kkt.as_ref().is_some_and(|k| k.same_structure(first)))
+}
+
+/// What a plain island's substeps read: the joint set and the bodies outside the island, the
+/// step's start time, the substep and the number of substeps.
+#[derive(Clone, Copy)]
+pub(super) struct PlainStep<'a> {
+    pub(super) joints: &'a JointSet,
+    pub(super) bodies: &'a RigidBodySet,
+    pub(super) time: Real,
+    pub(super) h: Real,
+    pub(super) n: usize,
+}
+
+/// Starts each island of `unit` (`start`) and steps the plain ones (all but the write-back,
+/// see [`Island::step_plain`]): a lane group whose islands are all lane-ready in lockstep
+/// ([`plain_substeps_lanes`]), any other plain island on its own. Returns a mask with bit
+/// `d` set where island `d` was stepped; the others are left for [`Island::step_alone`].
+pub(super) fn step_unit(
+    unit: &mut [Island],
+    lanes: Option<&mut KktLanes>,
+    start: impl Fn(&mut Island) -> Result<(), Error>,
+    step: PlainStep,
+) -> Result<u8, Error> {
+    for island in unit.iter_mut() {
+        start(island)?;
+    }
+    if let (Some(lanes), Ok(group)) = (lanes, <&mut [Island; LANES]>::try_from(&mut *unit))
+        && group.iter().all(Island::lane_ready)
+    {
+        plain_substeps_lanes(group, lanes, step)?;
+        return Ok((1 << LANES) - 1);
+    }
+    let mut stepped = 0;
+    for (d, island) in unit.iter_mut().enumerate() {
+        if island.plain {
+            island.step_plain(step.joints, step.bodies, step.time, step.h, step.n)?;
+            stepped |= 1 << d;
+        }
+    }
+    Ok(stepped)
+}
+
+impl Island {
+    /// The island's step can run in a lane group: the plain kernel, not composed (the
+    /// composition's stages may take a step again with RATTLE, see [`Island::step_plain`]),
+    /// with rows.
+    pub(super) fn lane_ready(&self) -> bool {
+        self.plain && !self.composed && self.kkt.is_some()
+    }
+}
+
+/// The substeps of [`Island::step_plain`] for four lane-ready islands of one structure, in
+/// lockstep (see the module docs).
+fn plain_substeps_lanes(
+    group: &mut [Island; LANES],
+    lanes: &mut KktLanes,
+    step: PlainStep,
+) -> Result<(), Error> {
+    let PlainStep {
+        joints,
+        bodies,
+        time,
+        h,
+        n,
+    } = step;
+    for k in 0..n {
+        for island in group.iter_mut() {
+            island.stage = (0, h);
+            island.before_factor(joints, bodies, h, time)?;
+            island.mass_blocks(joints, bodies, h);
+        }
+        factor_group(group, lanes, time)?;
+        for island in group.iter_mut() {
+            island.after_factor(h, time, k + 2 >= n, k + 1 == n)?;
+            island.factor_valid = Some(h);
+        }
+    }
+    Ok(())
+}
+
+/// The factorisations of a group's four islands (their mass blocks assembled): in lanes, or
+/// island by island where the lanes leave it to the scalar path.
+fn factor_group(
+    group: &mut [Island; LANES],
+    lanes: &mut KktLanes,
+    time: Real,
+) -> Result<(), Error> {
+    let in_lanes = {
+        let [a, b, c, d] = &mut *group;
+        match (parts(a), parts(b), parts(c), parts(d)) {
+            (Some((ka, ia)), Some((kb, ib)), Some((kc, ic)), Some((kd, id))) => {
+                KktSolver::factor_lanes([ka, kb, kc, kd], lanes, [ia, ib, ic, id])
+            }
+            _ => false,
+        }
+    };
+    for island in group.iter_mut() {
+        if in_lanes {
+            island.note_factor(FactorReport { redundant_rows: 0 }, time);
+            island.report.lane_factorisations += 1;
+        } else {
+            island.factor_blocks(time)?;
+        }
+    }
+    Ok(())
+}
+
+/// An island's solver and what its factorisation reads.
+fn parts(island: &mut Island) -> Option<(&mut KktSolver, FactorInputs<'_>)> {
+    let Island {
+        kkt,
+        mass,
+        jac,
+        compliance,
+        ..
+    } = island;
+    let inputs = FactorInputs {
+        mass,
+        jac,
+        compliance,
+    };
+    Some((kkt.as_mut()?, inputs))
+}
