@@ -2458,11 +2458,13 @@ mod tests {
         let mut rng = Lcg(7);
         let chain = chain_joints(6, |k| 1 + (k * 7 + 3) % 6);
         let bits = |v: &[Real]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        let mut in_lanes = 0;
         for (nb, joints) in [(6, chain), (8, tree_joints()), (3, loop_joints())] {
             for comp in [0.0, 1e-10] {
                 let ps: Vec<Problem> = (0..4)
                     .map(|_| random_problem(&mut rng, nb, &joints, comp))
                     .collect();
+                let scalar: Vec<_> = ps.iter().map(Problem::sparse_solve).collect();
                 let fresh = KktSolver::new(nb, &ps[0].specs).unwrap();
                 let mut lanes: Vec<KktSolver> = (0..4).map(|_| fresh.clone()).collect();
                 let inputs: [FactorInputs; 4] = std::array::from_fn(|l| FactorInputs {
@@ -2473,13 +2475,16 @@ mod tests {
                 let [a, b, c, d] = &mut lanes[..] else {
                     unreachable!()
                 };
-                assert!(KktSolver::factor_lanes(
-                    [a, b, c, d],
-                    &mut KktLanes::default(),
-                    inputs
-                ));
-                for (p, l) in ps.iter().zip(&lanes) {
-                    let (s, rep, x, lambda) = p.sparse_solve();
+                // The lanes take the systems whose every block stands unpivoted (in `f32`, whose
+                // redundancy tolerance is 5e-5, some random blocks are pivoted).
+                let unpivoted = scalar.iter().all(|(s, ..)| !s.pivoted);
+                let done = KktSolver::factor_lanes([a, b, c, d], &mut KktLanes::default(), inputs);
+                assert_eq!(done, unpivoted);
+                if !done {
+                    continue;
+                }
+                in_lanes += 1;
+                for ((p, l), (s, rep, x, lambda)) in ps.iter().zip(&lanes).zip(&scalar) {
                     assert_eq!(rep.redundant_rows, 0);
                     assert!(l.factored && !l.pivoted && l.dropped.is_empty());
                     assert_eq!(bits(&l.num.diag), bits(&s.num.diag));
@@ -2488,10 +2493,11 @@ mod tests {
                     let (mut xl, mut ll) = (p.f.clone(), p.g.clone());
                     l.solve(&mut xl, &mut ll).unwrap();
                     assert_eq!(bits(xl.as_flattened()), bits(x.as_flattened()));
-                    assert_eq!(bits(&ll), bits(&lambda));
+                    assert_eq!(bits(&ll), bits(lambda));
                 }
             }
         }
+        assert!(in_lanes >= 3, "{in_lanes} of 6 groups factored in lanes");
     }
 
     #[test]
