@@ -1,6 +1,8 @@
 //! A probe for issue 15 (`cargo bench --bench lane_kkt`): what stepping identical islands in
-//! lockstep, four to a SIMD register, would give the Lagrange backend's KKT factorisation and
-//! solves. Not the crate's solver: a plain block `LDLᵀ` of one arm of the mixed scene
+//! lockstep, four to a SIMD register, gives a KKT factorisation and its solves with the data
+//! already in lanes and in cache (the ceiling: the crate's own lanes, `src/solver/kkt/lanes.rs`,
+//! gather their inputs from four islands and unpack the factors, and its solves are still
+//! scalar). Not the crate's solver: a plain block `LDLᵀ` of one arm of the mixed scene
 //! (`studies::benchmarks::mixed`: five bodies in a chain from the ground, joints of 5, 3, 4, 5
 //! and 5 rows), written once over a lane type and run
 //!

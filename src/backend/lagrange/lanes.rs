@@ -30,6 +30,7 @@ use super::Island;
 
 /// The islands split into units, in order: a lane group of [`LANES`] islands of one structure
 /// with its lanes' scratch from `pool` (grown to the number of groups), or a single island.
+#[cfg(feature = "parallel")]
 pub(super) fn units<'a>(
     islands: &'a mut [Island],
     pool: &'a mut Vec<KktLanes>,
@@ -37,7 +38,7 @@ pub(super) fn units<'a>(
     let mut lens = Vec::new();
     let mut i = 0;
     while i < islands.len() {
-        let len = if groups_at(islands, i) { LANES } else { 1 };
+        let len = unit_len(&islands[i..]);
         lens.push(len);
         i += len;
     }
@@ -57,17 +58,17 @@ pub(super) fn units<'a>(
     out
 }
 
-/// The [`LANES`] islands from `i` on have rows and one KKT structure.
-fn groups_at(islands: &[Island], i: usize) -> bool {
-    let Some(unit) = islands.get(i..i + LANES) else {
-        return false;
-    };
-    let Some(first) = unit[0].kkt.as_ref() else {
-        return false;
-    };
-    unit[1..]
-        .iter()
-        .all(|x| x.kkt.as_ref().is_some_and(|k| k.same_structure(first)))
+/// The length of the unit the islands start with: [`LANES`] where the first [`LANES`] have
+/// rows and one KKT structure (a lane group), else 1.
+pub(super) fn unit_len(islands: &[Island]) -> usize {
+    let group = islands.get(..LANES).is_some_and(|unit| {
+        unit[0].kkt.as_ref().is_some_and(|first| {
+            unit[1..]
+                .iter()
+                .all(|x| x.kkt.as_ref().is_some_and(|k| k.same_structure(first)))
+        })
+    });
+    if group { LANES } else { 1 }
 }
 
 /// What a plain island's substeps read: the joint set and the bodies outside the island, the

@@ -150,28 +150,41 @@ impl LagrangeBackend {
             island.refresh_outputs(&self.fx, sets, roles, out, &mut self.refreshed);
         }
         #[cfg(not(feature = "parallel"))]
-        for (unit, lanes) in lanes::units(&mut self.islands, &mut self.lanes) {
-            let stepped = {
-                let shared: &Sets = sets;
-                let start =
-                    |island: &mut Island| island.start_step(shared, roles, h, rebuilt, true);
-                let step = lanes::PlainStep {
-                    joints: shared.joints,
-                    bodies: &shared.physics.bodies,
-                    time: shared.time,
-                    h,
-                    n,
+        {
+            let (mut rest, mut groups) = (&mut self.islands[..], 0);
+            while !rest.is_empty() {
+                let len = lanes::unit_len(rest);
+                let (unit, tail) = core::mem::take(&mut rest).split_at_mut(len);
+                rest = tail;
+                let lanes = (len > 1).then(|| {
+                    if self.lanes.len() == groups {
+                        self.lanes.push(crate::solver::kkt::KktLanes::default());
+                    }
+                    groups += 1;
+                    &mut self.lanes[groups - 1]
+                });
+                let stepped = {
+                    let shared: &Sets = sets;
+                    let start =
+                        |island: &mut Island| island.start_step(shared, roles, h, rebuilt, true);
+                    let step = lanes::PlainStep {
+                        joints: shared.joints,
+                        bodies: &shared.physics.bodies,
+                        time: shared.time,
+                        h,
+                        n,
+                    };
+                    lanes::step_unit(unit, lanes, start, step)?
                 };
-                lanes::step_unit(unit, lanes, start, step)?
-            };
-            for (d, island) in unit.iter_mut().enumerate() {
-                if stepped & (1 << d) != 0 {
-                    island.write_back(sets.physics, sets.time)?;
-                } else {
-                    island.step_alone(&mut self.fx, sets, h, n)?;
+                for (d, island) in unit.iter_mut().enumerate() {
+                    if stepped & (1 << d) != 0 {
+                        island.write_back(sets.physics, sets.time)?;
+                    } else {
+                        island.step_alone(&mut self.fx, sets, h, n)?;
+                    }
+                    island.sleep_check(&mut sets.physics.bodies, h * n as Real);
+                    island.refresh_outputs(&self.fx, sets, roles, out, &mut self.refreshed);
                 }
-                island.sleep_check(&mut sets.physics.bodies, h * n as Real);
-                island.refresh_outputs(&self.fx, sets, roles, out, &mut self.refreshed);
             }
         }
         #[cfg(feature = "parallel")]

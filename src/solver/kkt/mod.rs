@@ -67,6 +67,15 @@
 //!
 //! All storage is allocated in [`KktSolver::new`]; [`KktSolver::factor`] and [`KktSolver::solve`]
 //! do not allocate (except for the first growth of the list of dropped rows).
+//!
+//! # Four systems at once
+//!
+//! The numeric kernels (assembly, the unpivoted block steps, the Schur updates, the inversion
+//! of each pivot) are generic over [`Lane`](crate::solver::lane::Lane): one system in
+//! [`Real`], or four systems of the same structure in the four lanes of a SIMD register
+//! (`lanes`, `KktSolver::factor_lanes`), each lane running the scalar operations in the
+//! same order. A solver's structure ([`KktSolver::new`]'s pivots, blocks, Schur updates and
+//! assembly) is kept apart from its values for that.
 
 use std::collections::{BTreeSet, HashMap};
 
