@@ -135,9 +135,14 @@ fn plain_substeps_lanes(
         n,
     } = step;
     for k in 0..n {
+        // [`Island::before_factor`], the position projections' solves in lanes.
         for island in group.iter_mut() {
             island.stage = (0, h);
-            island.before_factor(joints, bodies, h, time)?;
+            island.kick_and_solve(h, time, island.free_drift())?;
+            island.drift(h);
+        }
+        project_positions_lanes(group, lanes, step)?;
+        for island in group.iter_mut() {
             island.mass_blocks(joints, bodies, h);
         }
         factor_group(group, lanes, time)?;
@@ -145,6 +150,76 @@ fn plain_substeps_lanes(
             island.after_factor(h, time, k + 2 >= n, k + 1 == n)?;
             island.factor_valid = Some(h);
         }
+    }
+    Ok(())
+}
+
+/// [`Island::project_positions`] of a group's four islands in lockstep: each island's
+/// iterations as its own, the steps' solves in lanes where the lanes hold the islands' factors
+/// (the last factorisation of each was the group's in lanes), an island that has converged
+/// solving a zero lane, dropped; island by island otherwise (an island that refactorised:
+/// Gauss-Newton near a singular pose).
+fn project_positions_lanes(
+    group: &mut [Island; LANES],
+    lanes: &mut KktLanes,
+    step: PlainStep,
+) -> Result<(), Error> {
+    let PlainStep {
+        joints,
+        bodies,
+        time,
+        h,
+        ..
+    } = step;
+    let mut p = group
+        .each_mut()
+        .map(|island| island.begin_projection(joints, bodies, h));
+    let mut active = [true; LANES];
+    loop {
+        for ((island, p), active) in group.iter_mut().zip(&mut p).zip(&mut active) {
+            if *active {
+                *active = island.projection_round(p, joints, bodies, h, time)?;
+                if *active {
+                    island.clear_projection_rhs();
+                }
+            }
+        }
+        if !active.iter().any(|&a| a) {
+            break;
+        }
+        let in_lanes = {
+            let [a, b, c, d] = &mut *group;
+            let [(ka, ra), (kb, rb), (kc, rc), (kd, rd)] = [a, b, c, d].map(|island| {
+                let Island {
+                    kkt, rhs_b, rhs_j, ..
+                } = island;
+                (kkt.as_ref(), (&mut rhs_b[..], &mut rhs_j[..]))
+            });
+            match (ka, kb, kc, kd) {
+                (Some(ka), Some(kb), Some(kc), Some(kd)) => {
+                    let mut rhs = [Some(ra), Some(rb), Some(rc), Some(rd)];
+                    for (r, &a) in rhs.iter_mut().zip(&active) {
+                        if !a {
+                            *r = None;
+                        }
+                    }
+                    KktSolver::solve_lanes([ka, kb, kc, kd], lanes, rhs)
+                }
+                _ => false,
+            }
+        };
+        for ((island, p), &active) in group.iter_mut().zip(&mut p).zip(&active) {
+            if active {
+                if !in_lanes {
+                    island.solve_projection(time)?;
+                }
+                island.apply_projection_step(h);
+                p.stepped();
+            }
+        }
+    }
+    for (island, p) in group.iter_mut().zip(&p) {
+        island.end_projection(p, joints, bodies, h, time);
     }
     Ok(())
 }

@@ -19,6 +19,32 @@ use super::{
     displace, kkt_err, projection_tolerance,
 };
 
+/// A position projection between its steps (see [`Island::project_positions`]): its
+/// tolerances and the iteration's state.
+pub(super) struct Projection {
+    nominal: Real,
+    tol: Real,
+    far: Real,
+    residual: Real,
+    iterations: usize,
+    jac_behind: bool,
+    /// The largest contraction of the residual per chord step seen in this projection.
+    rate: Real,
+    predicted: bool,
+    previous: Real,
+    newton: bool,
+    backtracks: usize,
+    it: usize,
+}
+
+impl Projection {
+    /// A step was taken: the residual it started from is the one to beat.
+    pub(super) fn stepped(&mut self) {
+        self.previous = self.residual;
+        self.it += 1;
+    }
+}
+
 impl Island {
     /// The free drift's velocity (see [`Island::free_drift`]): the position multipliers
     /// extrapolated from the last substeps ([`Island::extrapolate_multipliers`]) act as the
@@ -113,112 +139,164 @@ impl Island {
         h: Real,
         time: Real,
     ) -> Result<(), Error> {
+        let mut p = self.begin_projection(joints, bodies, h);
+        while self.projection_round(&mut p, joints, bodies, h, time)? {
+            self.projection_step(h, time)?;
+            p.stepped();
+        }
+        self.end_projection(&p, joints, bodies, h, time);
+        Ok(())
+    }
+
+    /// A position projection's start: its tolerances and the warm start.
+    pub(super) fn begin_projection(
+        &mut self,
+        joints: &JointSet,
+        bodies: &RigidBodySet,
+        h: Real,
+    ) -> Projection {
         let nominal = projection_tolerance();
-        let mut tol = if self.warm_axes.as_ref().is_some_and(|w| !w.is_empty()) {
+        let tol = if self.warm_axes.as_ref().is_some_and(|w| !w.is_empty()) {
             WARM_AXES_TOLERANCE * nominal
         } else {
             nominal
         };
-        // Where the residual is this far above the tolerance, a slow or failed step is the
-        // constraints' curvature over a long step, which a refactorisation or a shorter step
-        // mends; near the tolerance it is round-off on ill-conditioned rows (a spin of tiny
-        // inertia), where they only move the result (see `BACKTRACKS`).
-        let far = 1e3 * nominal;
-        let mut residual = 0.0;
-        let mut iterations = 0;
         for s in self.shift.iter_mut() {
             *s = [0.0; 6];
         }
         self.warm_start(joints, bodies, h);
-        // Whether the Jacobian arena is behind the bodies: the warm start evaluated the rows'
-        // values alone (see `Island::residual`), and so does a chord iteration that expects
-        // another step to follow. Only the Jacobian at `q_(n+1)` is read (the chord steps take
-        // their directions from the factorisation), so it is evaluated where the projection
-        // stops.
-        let mut jac_behind = self.fresh_values;
-        // The largest contraction of the residual per chord step seen in this projection.
-        let mut rate: Real = 0.0;
-        // A stage's own extrapolation (see `Island::extrapolate_multipliers`) takes at least
-        // one chord step, and converges to the warm axes' tolerance where it starts within
-        // `far` of the tolerance.
-        let predicted = !self.stage_pred.is_empty();
-        // Chord iterations on the start-of-substep factorisation. Should one increase the
-        // residual (near a singular pose, where the start-of-substep directions lose rank), it is
-        // undone and the projection continues as damped Gauss-Newton: refactorised at the current
-        // configuration, each step halved while it raises the residual far from the tolerance
-        // (up to `BACKTRACKS` times), and otherwise undone with a regularisation raised
-        // tenfold. Far from the tolerance, the chord iteration also hands over to Gauss-Newton
-        // where it converges too slowly to reach the tolerance within the iteration limit at
-        // its last rate.
-        let mut previous = Real::INFINITY;
-        let mut newton = false;
-        let mut backtracks = 0;
-        for it in 0..=MAX_PROJECTION_ITERATIONS {
+        Projection {
+            nominal,
+            tol,
+            // Where the residual is this far above the tolerance, a slow or failed step is the
+            // constraints' curvature over a long step, which a refactorisation or a shorter
+            // step mends; near the tolerance it is round-off on ill-conditioned rows (a spin of
+            // tiny inertia), where they only move the result (see `BACKTRACKS`).
+            far: 1e3 * nominal,
+            residual: 0.0,
+            iterations: 0,
+            // Whether the Jacobian arena is behind the bodies: the warm start evaluated the
+            // rows' values alone (see `Island::residual`), and so does a chord iteration that
+            // expects another step to follow. Only the Jacobian at `q_(n+1)` is read (the chord
+            // steps take their directions from the factorisation), so it is evaluated where
+            // the projection stops.
+            jac_behind: self.fresh_values,
+            rate: 0.0,
+            // A stage's own extrapolation (see `Island::extrapolate_multipliers`) takes at
+            // least one chord step, and converges to the warm axes' tolerance where it starts
+            // within `far` of the tolerance.
+            predicted: !self.stage_pred.is_empty(),
+            previous: Real::INFINITY,
+            newton: false,
+            backtracks: 0,
+            it: 0,
+        }
+    }
+
+    /// The projection's iterations up to its next step: `true` when a step is to be taken
+    /// (its right-hand side in `rhs_j`; the caller solves it, [`Island::apply_projection_step`]
+    /// and [`Projection::stepped`]), `false` when the projection is done.
+    ///
+    /// Chord iterations on the start-of-substep factorisation. Should one increase the residual
+    /// (near a singular pose, where the start-of-substep directions lose rank), it is undone
+    /// and the projection continues as damped Gauss-Newton: refactorised at the current
+    /// configuration, each step halved while it raises the residual far from the tolerance (up
+    /// to `BACKTRACKS` times), and otherwise undone with a regularisation raised tenfold. Far
+    /// from the tolerance, the chord iteration also hands over to Gauss-Newton where it
+    /// converges too slowly to reach the tolerance within the iteration limit at its last rate.
+    pub(super) fn projection_round(
+        &mut self,
+        p: &mut Projection,
+        joints: &JointSet,
+        bodies: &RigidBodySet,
+        h: Real,
+        time: Real,
+    ) -> Result<bool, Error> {
+        while p.it <= MAX_PROJECTION_ITERATIONS {
+            let it = p.it;
             // The rows at the iterate: with the Jacobian, unless the step to it is expected to
             // have left the residual far above the tolerance (at the contraction of the last
             // projection's slowest chord step), so that another step follows and this
-            // Jacobian would not be read (see `jac_behind`).
+            // Jacobian would not be read (see `Projection::jac_behind`).
             if !core::mem::take(&mut self.fresh_values) {
-                jac_behind = !newton
-                    && previous.is_finite()
-                    && previous * self.chord_rate > CHORD_MARGIN * tol;
-                let what = if jac_behind {
+                p.jac_behind = !p.newton
+                    && p.previous.is_finite()
+                    && p.previous * self.chord_rate > CHORD_MARGIN * p.tol;
+                let what = if p.jac_behind {
                     Eval::Values
                 } else {
                     Eval::Geometry
                 };
                 self.eval_rows(joints, bodies, what);
             }
-            residual = self.projection_targets(h);
-            if !newton && previous.is_finite() && residual < previous {
-                rate = rate.max(residual / previous);
+            p.residual = self.projection_targets(h);
+            if !p.newton && p.previous.is_finite() && p.residual < p.previous {
+                p.rate = p.rate.max(p.residual / p.previous);
             }
-            if it == 0 && predicted && residual <= far {
-                tol = tol.min(WARM_AXES_TOLERANCE * nominal);
+            if it == 0 && p.predicted && p.residual <= p.far {
+                p.tol = p.tol.min(WARM_AXES_TOLERANCE * p.nominal);
             }
-            if (residual <= tol && (it > 0 || !predicted)) || it == MAX_PROJECTION_ITERATIONS {
-                if jac_behind {
+            if (p.residual <= p.tol && (it > 0 || !p.predicted)) || it == MAX_PROJECTION_ITERATIONS
+            {
+                if p.jac_behind {
                     self.eval_rows(joints, bodies, Eval::Geometry);
                 }
-                iterations = it;
-                break;
+                p.iterations = it;
+                return Ok(false);
             }
-            if residual > previous || !residual.is_finite() {
-                if newton && backtracks < BACKTRACKS && previous > far {
-                    backtracks += 1;
+            if p.residual > p.previous || !p.residual.is_finite() {
+                p.it += 1;
+                if p.newton && p.backtracks < BACKTRACKS && p.previous > p.far {
+                    p.backtracks += 1;
                     self.scale_projection_step(h, 0.5);
                     continue;
                 }
-                backtracks = 0;
-                self.undo_projection_step(h, newton);
-                newton = true;
-                previous = Real::INFINITY;
+                p.backtracks = 0;
+                self.undo_projection_step(h, p.newton);
+                p.newton = true;
+                p.previous = Real::INFINITY;
                 continue;
             }
-            newton = newton
-                || (it >= 2 && residual > far && chord_too_slow(residual, previous, tol, it));
-            if newton {
+            p.newton = p.newton
+                || (it >= 2
+                    && p.residual > p.far
+                    && chord_too_slow(p.residual, p.previous, p.tol, it));
+            if p.newton {
                 self.rows(joints, bodies, h, true);
                 self.factor(joints, bodies, h, time)?;
             }
-            backtracks = 0;
-            self.projection_step(h, time)?;
-            previous = residual;
+            p.backtracks = 0;
+            return Ok(true);
         }
+        // The last iteration returns above.
+        Ok(false)
+    }
+
+    /// The projection's end: its report, the correction fed into the velocity, the rows'
+    /// terms at `q_(n+1)`.
+    pub(super) fn end_projection(
+        &mut self,
+        p: &Projection,
+        joints: &JointSet,
+        bodies: &RigidBodySet,
+        h: Real,
+        time: Real,
+    ) {
+        let (residual, iterations) = (p.residual, p.iterations);
         self.reg_scale = 1.0;
-        if rate > 0.0 {
-            self.chord_rate = rate;
+        if p.rate > 0.0 {
+            self.chord_rate = p.rate;
         }
         if self.free_h > 0.0 {
             self.free_measure(iterations);
             self.carry_into_mu(self.free_h);
         }
         self.report.projection_iterations = iterations;
-        if newton || iterations == MAX_PROJECTION_ITERATIONS {
+        if p.newton || iterations == MAX_PROJECTION_ITERATIONS {
             self.report.projection_fallbacks += 1;
         }
         self.report.projection_residual = self.report.projection_residual.max(residual);
-        if residual > far {
+        if residual > p.far {
             self.warn(
                 Warning::Projection,
                 format!(
@@ -232,7 +310,6 @@ impl Island {
         // inertia there.
         self.constraint_terms(joints, bodies, h);
         self.record_warm_axes(joints, bodies);
-        Ok(())
     }
 
     /// Feeds the projection's correction into the velocity (constrained symplectic Euler). A
@@ -369,14 +446,36 @@ impl Island {
     /// One chord step: solves for the correction of the current deviation and displaces the
     /// bodies, remembering the step so that it can be undone.
     fn projection_step(&mut self, h: Real, time: Real) -> Result<(), Error> {
+        self.clear_projection_rhs();
+        self.solve_projection(time)?;
+        self.apply_projection_step(h);
+        Ok(())
+    }
+
+    /// A projection step's body right-hand side: zero (the displacement solves
+    /// `[M~ Jᵀ; J -C] (d, mu) = (0, -C(q))`).
+    pub(super) fn clear_projection_rhs(&mut self) {
         for b in self.rhs_b.iter_mut() {
             *b = [0.0; 6];
         }
+    }
+
+    /// The solve of a projection step ([`Island::clear_projection_rhs`] first): the
+    /// displacement into `rhs_b`, the multipliers into `rhs_j`.
+    pub(super) fn solve_projection(&mut self, time: Real) -> Result<(), Error> {
         let Some(kkt) = self.kkt.as_ref() else {
             return Ok(());
         };
         kkt.solve(&mut self.rhs_b, &mut self.rhs_j)
-            .map_err(|e| kkt_err(e, time))?;
+            .map_err(|e| kkt_err(e, time))
+    }
+
+    /// A projection step's solution ([`Island::solve_projection`]) applied: the bodies
+    /// displaced, the multipliers booked, the step kept to be undone.
+    pub(super) fn apply_projection_step(&mut self, h: Real) {
+        if self.kkt.is_none() {
+            return;
+        }
         for (b, s) in self.backup.iter_mut().zip(&self.st) {
             *b = (s.pose, s.com);
         }
@@ -395,7 +494,6 @@ impl Island {
                 *acc += d;
             }
         }
-        Ok(())
     }
 
     /// Scales the last step by `f`: a Gauss-Newton step's backtracking, and with 0 its undoing.

@@ -371,7 +371,7 @@ impl Island {
     /// are targets of the velocity solve) or the composition (its stages' histories are
     /// their own, see `Island::extrapolate_multipliers`). Plain islands have no drive rows,
     /// whose rates are targets too.
-    fn free_drift(&self) -> bool {
+    pub(super) fn free_drift(&self) -> bool {
         self.free_pause == 0
             && !self.composed
             && !self.redundant
@@ -672,7 +672,7 @@ impl Island {
     /// [`Island::free_drift`]) the kicked velocities plus the predicted constraint impulse.
     /// The warm start's history holds one form's multipliers or the other's, and starts again
     /// where the island changes form.
-    fn kick_and_solve(&mut self, h: Real, time: Real, free: bool) -> Result<(), Error> {
+    pub(super) fn kick_and_solve(&mut self, h: Real, time: Real, free: bool) -> Result<(), Error> {
         if free != (self.free_h > 0.0) {
             self.mu_depth = 0;
         }

@@ -26,6 +26,11 @@ pub(crate) struct KktLanes {
     num: Numeric<Lanes>,
     /// Identity permutations of every pivot, as the scalar unpivoted steps write them.
     perms: Vec<u8>,
+    /// The stamps of the four factorisations `num` holds (see [`KktSolver::solve_lanes`]).
+    stamps: [u64; LANES],
+    /// A solve's right-hand sides in lanes (bodies flattened, joints).
+    rhs_b: Vec<Lanes>,
+    rhs_j: Vec<Lanes>,
 }
 
 impl Default for KktLanes {
@@ -37,6 +42,9 @@ impl Default for KktLanes {
                 offd: Vec::new(),
             },
             perms: Vec::new(),
+            stamps: [0; LANES],
+            rhs_b: Vec::new(),
+            rhs_j: Vec::new(),
         }
     }
 }
@@ -162,14 +170,70 @@ impl KktSolver {
                 &mut s3.num.offd,
             ],
         );
-        for s in [s0, s1, s2, s3] {
+        for (s, stamp) in [s0, s1, s2, s3].into_iter().zip(&mut lanes.stamps) {
             s.perms.copy_from_slice(perms);
             s.dropped.clear();
             s.pivoted = false;
             s.factored = true;
+            s.stamp = next_stamp();
+            *stamp = s.stamp;
         }
         true
     }
+
+    /// Solves the systems of `solvers` in lanes, as [`Self::solve`] solves each (the same
+    /// operations in each lane: the same result to the bit), where `lanes` holds their
+    /// current factors (the last [`Self::factor_lanes`] of these four solvers, none of them
+    /// factored since). A `None` lane is solved for a zero right-hand side and dropped.
+    /// Returns `false`, touching nothing, where `lanes` does not hold their factors or a
+    /// right-hand side has the wrong length: each is then to be solved by [`Self::solve`].
+    pub(crate) fn solve_lanes(
+        solvers: [&KktSolver; LANES],
+        lanes: &mut KktLanes,
+        mut rhs: [Option<(&mut [[Real; 6]], &mut [Real])>; LANES],
+    ) -> bool {
+        let t = solvers[0];
+        let (nb, rows) = (t.nb, t.num_rows());
+        let held = solvers
+            .iter()
+            .zip(&lanes.stamps)
+            .all(|(s, &stamp)| s.factored && s.stamp != 0 && s.stamp == stamp);
+        let fits = rhs
+            .iter()
+            .flatten()
+            .all(|(b, j)| b.len() == nb && j.len() == rows);
+        if !held || !fits {
+            return false;
+        }
+        let b: [Option<&[Real]>; LANES] =
+            std::array::from_fn(|l| rhs[l].as_ref().map(|(b, _)| b.as_flattened()));
+        let j: [Option<&[Real]>; LANES] =
+            std::array::from_fn(|l| rhs[l].as_ref().map(|(_, j)| &j[..]));
+        gather(&mut lanes.rhs_b, b, 6 * nb);
+        gather(&mut lanes.rhs_j, j, rows);
+        substitute::<Lanes, false>(&t.shape, &lanes.num, &t.perms, &mut lanes.rhs_b, &mut lanes.rhs_j);
+        for (l, slot) in rhs.iter_mut().enumerate() {
+            let Some((b, j)) = slot else { continue };
+            for (x, v) in b.as_flattened_mut().iter_mut().zip(&lanes.rhs_b) {
+                *x = v.as_array()[l];
+            }
+            for (x, v) in j.iter_mut().zip(&lanes.rhs_j) {
+                *x = v.as_array()[l];
+            }
+        }
+        true
+    }
+}
+
+/// The first `n` entries of `src[l]` into lane `l` of `dst` (0 for a `None`).
+fn gather(dst: &mut Vec<Lanes>, src: [Option<&[Real]>; LANES], n: usize) {
+    const NONE: &[Real] = &[];
+    let [s0, s1, s2, s3] = src.map(|x| x.map_or(NONE, |x| &x[..n]));
+    dst.clear();
+    dst.extend((0..n).map(|i| {
+        let at = |s: &[Real]| s.get(i).copied().unwrap_or(0.0);
+        Lanes::new([at(s0), at(s1), at(s2), at(s3)])
+    }));
 }
 
 /// Lane `l` of `src` into `dst[l]` (each at least as long).

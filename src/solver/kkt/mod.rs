@@ -471,6 +471,16 @@ pub struct KktSolver {
     /// identity otherwise, and [`Self::solve`] skips reading them).
     pivoted: bool,
     factored: bool,
+    /// A number no other factorisation in the process had, given by each successful one (0
+    /// before): [`KktLanes`] recognises the factors it holds by it.
+    stamp: u64,
+}
+
+/// The next [`KktSolver`] factorisation's stamp (never 0).
+fn next_stamp() -> u64 {
+    use std::sync::atomic::{AtomicU64, Ordering};
+    static STAMPS: AtomicU64 = AtomicU64::new(1);
+    STAMPS.fetch_add(1, Ordering::Relaxed)
 }
 
 /// The elimination game of [`KktSolver::new`] on the graph whose nodes are the bodies and the
@@ -844,6 +854,7 @@ impl KktSolver {
             tol: Self::default_redundancy_tolerance(),
             pivoted: false,
             factored: false,
+            stamp: 0,
         })
     }
 
@@ -890,6 +901,7 @@ impl KktSolver {
         compliance: &[Real],
     ) -> Result<FactorReport, KktError> {
         self.factored = false;
+        self.stamp = 0;
         self.pivoted = false;
         self.dropped.clear();
         let rows = self.num_rows();
@@ -928,6 +940,7 @@ impl KktSolver {
             self.check_inputs(mass, jac, compliance)?;
         }
         self.factored = true;
+        self.stamp = next_stamp();
         Ok(FactorReport {
             redundant_rows: self.dropped.len(),
         })
@@ -1102,65 +1115,75 @@ impl KktSolver {
         // Forward: z_p final; u_p = D⁺ L⁻¹ Π z_p replaces it, and rhs_j -= Y_j u_p
         // (= W_j P⁺ z_p).
         if self.pivoted {
-            self.substitute::<true>(bodies, rhs_joints);
+            substitute::<Real, true>(&self.shape, &self.num, &self.perms, bodies, rhs_joints);
         } else {
-            self.substitute::<false>(bodies, rhs_joints);
+            substitute::<Real, false>(&self.shape, &self.num, &self.perms, bodies, rhs_joints);
         }
         Ok(())
     }
+}
 
-    /// The forward and backward substitutions of [`Self::solve`]; `P`: some pivot block's
-    /// permutation is not the identity.
-    fn substitute<const P: bool>(&self, bodies: &mut [Real], joints: &mut [Real]) {
-        for pv in &self.shape.pivots {
-            by_dim!(pv.dim, N => self.forward_step::<N, P>(pv, bodies, joints));
-        }
-        // Backward: x_p = P⁺ (z_p - Σ W_jᵀ x_j) = Πᵀ L⁻ᵀ (u_p - D⁺ Σ Y_jᵀ x_j).
-        for pv in self.shape.pivots.iter().rev() {
-            by_dim!(pv.dim, N => self.backward_step::<N, P>(pv, bodies, joints));
-        }
+/// The forward and backward substitutions of [`KktSolver::solve`] on the factors `num` (one
+/// system or four in lanes); `P`: some pivot block's permutation is not the identity.
+fn substitute<T: Lane, const P: bool>(
+    shape: &Shape,
+    num: &Numeric<T>,
+    perms: &[u8],
+    bodies: &mut [T],
+    joints: &mut [T],
+) {
+    for pv in &shape.pivots {
+        by_dim!(pv.dim, N => forward_step::<T, N, P>(shape, num, perms, pv, bodies, joints));
+    }
+    // Backward: x_p = P⁺ (z_p - Σ W_jᵀ x_j) = Πᵀ L⁻ᵀ (u_p - D⁺ Σ Y_jᵀ x_j).
+    for pv in shape.pivots.iter().rev() {
+        by_dim!(pv.dim, N => backward_step::<T, N, P>(shape, num, perms, pv, bodies, joints));
     }
 }
 
-impl KktSolver {
-    /// Forward substitution of pivot `pv` (dimension `N`).
-    fn forward_step<const N: usize, const P: bool>(
-        &self,
-        pv: &Pivot,
-        bodies: &mut [Real],
-        joints: &mut [Real],
-    ) {
-        let fac = Packed::<N, P>::new(&self.num.diag[pv.diag_off..], &self.perms[pv.scale_off..]);
-        let slot = seg(pv.rhs, N, bodies, joints);
-        let u = fac.scaled_into(fac.lower_solve(slot), slot);
-        for blk in &self.shape.blocks[pv.blk_start..pv.blk_end] {
-            let y = &self.num.offd[blk.off..blk.off + blk.rows * N];
-            let r = seg(blk.rhs, blk.rows, bodies, joints);
-            by_rows!(blk.rows, M => sub_mat_t_vec::<N, M>(y, &u, r), sub_mat_t_vec_dyn::<N>(y, &u, r));
-        }
+/// Forward substitution of pivot `pv` (dimension `N`).
+#[inline(always)]
+fn forward_step<T: Lane, const N: usize, const P: bool>(
+    shape: &Shape,
+    num: &Numeric<T>,
+    perms: &[u8],
+    pv: &Pivot,
+    bodies: &mut [T],
+    joints: &mut [T],
+) {
+    let fac = Packed::<T, N, P>::new(&num.diag[pv.diag_off..], &perms[pv.scale_off..]);
+    let slot = seg(pv.rhs, N, bodies, joints);
+    let u = fac.scaled_into(fac.lower_solve(slot), slot);
+    for blk in &shape.blocks[pv.blk_start..pv.blk_end] {
+        let y = &num.offd[blk.off..blk.off + blk.rows * N];
+        let r = seg(blk.rhs, blk.rows, bodies, joints);
+        by_rows!(blk.rows, M => sub_mat_t_vec::<T, N, M>(y, &u, r), sub_mat_t_vec_dyn::<T, N>(y, &u, r));
     }
+}
 
-    /// Backward substitution of pivot `pv` (dimension `N`).
-    fn backward_step<const N: usize, const P: bool>(
-        &self,
-        pv: &Pivot,
-        bodies: &mut [Real],
-        joints: &mut [Real],
-    ) {
-        let fac = Packed::<N, P>::new(&self.num.diag[pv.diag_off..], &self.perms[pv.scale_off..]);
-        let mut acc = [0.0; N];
-        for blk in &self.shape.blocks[pv.blk_start..pv.blk_end] {
-            let y = &self.num.offd[blk.off..blk.off + blk.rows * N];
-            let x = seg(blk.rhs, blk.rows, bodies, joints);
-            by_rows!(blk.rows, M => add_mat_vec::<N, M>(y, x, &mut acc), add_mat_vec_dyn::<N>(y, x, &mut acc));
-        }
-        let slot = seg(pv.rhs, N, bodies, joints);
-        let mut t = [0.0; N];
-        for (((ti, &ui), &ai), &di) in t.iter_mut().zip(slot.iter()).zip(&acc).zip(fac.dinv) {
-            *ti = ui - di * ai;
-        }
-        fac.upper_solve_into(t, slot);
+/// Backward substitution of pivot `pv` (dimension `N`).
+#[inline(always)]
+fn backward_step<T: Lane, const N: usize, const P: bool>(
+    shape: &Shape,
+    num: &Numeric<T>,
+    perms: &[u8],
+    pv: &Pivot,
+    bodies: &mut [T],
+    joints: &mut [T],
+) {
+    let fac = Packed::<T, N, P>::new(&num.diag[pv.diag_off..], &perms[pv.scale_off..]);
+    let mut acc = [T::ZERO; N];
+    for blk in &shape.blocks[pv.blk_start..pv.blk_end] {
+        let y = &num.offd[blk.off..blk.off + blk.rows * N];
+        let x = seg(blk.rhs, blk.rows, bodies, joints);
+        by_rows!(blk.rows, M => add_mat_vec::<T, N, M>(y, x, &mut acc), add_mat_vec_dyn::<T, N>(y, x, &mut acc));
     }
+    let slot = seg(pv.rhs, N, bodies, joints);
+    let mut t = [T::ZERO; N];
+    for (((ti, &ui), &ai), &di) in t.iter_mut().zip(slot.iter()).zip(&acc).zip(fac.dinv) {
+        *ti = ui - di * ai;
+    }
+    fac.upper_solve_into(t, slot);
 }
 
 /// The factors of one pivot block (`Π P Πᵀ = L D Lᵀ`, `P` of dimension `N`) as the
@@ -1410,9 +1433,9 @@ fn schur_update<T: Lane, const N: usize, const P: bool>(
 
 /// `r -= Yᵀ u` for `Y` of `N × M` (row-major).
 #[inline(always)]
-fn sub_mat_t_vec<const N: usize, const M: usize>(y: &[Real], u: &[Real; N], r: &mut [Real]) {
+fn sub_mat_t_vec<T: Lane, const N: usize, const M: usize>(y: &[T], u: &[T; N], r: &mut [T]) {
     let (y, r) = (&y[..N * M], &mut r[..M]);
-    let mut acc = [0.0; M];
+    let mut acc = [T::ZERO; M];
     for (yrow, &uk) in y.chunks_exact(M).zip(u) {
         for (a, &v) in acc.iter_mut().zip(yrow) {
             *a += uk * v;
@@ -1424,9 +1447,9 @@ fn sub_mat_t_vec<const N: usize, const M: usize>(y: &[Real], u: &[Real; N], r: &
 }
 
 /// [`sub_mat_t_vec`] for any number of columns (`r.len()`).
-fn sub_mat_t_vec_dyn<const N: usize>(y: &[Real], u: &[Real; N], r: &mut [Real]) {
+fn sub_mat_t_vec_dyn<T: Lane, const N: usize>(y: &[T], u: &[T; N], r: &mut [T]) {
     let m = r.len();
-    let mut acc = [0.0; MAX_DIM];
+    let mut acc = [T::ZERO; MAX_DIM];
     for (yrow, &uk) in y[..N * m].chunks_exact(m).zip(u) {
         for (a, &v) in acc.iter_mut().zip(yrow) {
             *a += uk * v;
@@ -1439,15 +1462,15 @@ fn sub_mat_t_vec_dyn<const N: usize>(y: &[Real], u: &[Real; N], r: &mut [Real]) 
 
 /// `acc += Y x` for `Y` of `N × M` (row-major).
 #[inline(always)]
-fn add_mat_vec<const N: usize, const M: usize>(y: &[Real], x: &[Real], acc: &mut [Real; N]) {
+fn add_mat_vec<T: Lane, const N: usize, const M: usize>(y: &[T], x: &[T], acc: &mut [T; N]) {
     let (y, x) = (&y[..N * M], &x[..M]);
     for (a, yrow) in acc.iter_mut().zip(y.chunks_exact(M)) {
-        *a += dot_n::<Real, M>(yrow, x);
+        *a += dot_n::<T, M>(yrow, x);
     }
 }
 
 /// [`add_mat_vec`] for any number of columns (`x.len()`).
-fn add_mat_vec_dyn<const N: usize>(y: &[Real], x: &[Real], acc: &mut [Real; N]) {
+fn add_mat_vec_dyn<T: Lane, const N: usize>(y: &[T], x: &[T], acc: &mut [T; N]) {
     let m = x.len();
     for (a, yrow) in acc.iter_mut().zip(y[..N * m].chunks_exact(m)) {
         *a += dot(yrow, x);
@@ -1599,12 +1622,7 @@ fn check_len(what: &'static str, expected: usize, got: usize) -> Result<(), KktE
 
 /// The right-hand-side segment of a node.
 #[inline(always)]
-fn seg<'a>(
-    loc: RhsLoc,
-    len: usize,
-    bodies: &'a mut [Real],
-    joints: &'a mut [Real],
-) -> &'a mut [Real] {
+fn seg<'a, T>(loc: RhsLoc, len: usize, bodies: &'a mut [T], joints: &'a mut [T]) -> &'a mut [T] {
     if loc.joint {
         &mut joints[loc.off..loc.off + len]
     } else {
@@ -1634,8 +1652,12 @@ fn dot_n<T: Lane, const N: usize>(a: &[T], b: &[T]) -> T {
 }
 
 #[inline]
-fn dot(a: &[Real], b: &[Real]) -> Real {
-    a.iter().zip(b).map(|(x, y)| x * y).sum()
+fn dot<T: Lane>(a: &[T], b: &[T]) -> T {
+    // From `-0.0`, as `Iterator::sum` of the floats adds (it keeps an all-negative-zero sum's
+    // sign): the same bits as the scalar `sum` this replaced.
+    a.iter()
+        .zip(b)
+        .fold(T::splat(-0.0), |acc, (&x, &y)| acc + x * y)
 }
 
 /// Replaces the unit lower triangular `L` stored strictly below the diagonal of the packed
@@ -1684,17 +1706,17 @@ fn invert_and_pack<T: Lane, const N: usize>(a: &mut [T], dinv: &[T]) {
 
 /// The factors of one pivot block as the solve reads them: `X = L⁻¹` packed by rows (strictly
 /// lower part, `X_ik` at `i (i - 1) / 2 + k`), followed by `D⁺`, and the permutation.
-struct Packed<'a, const N: usize, const P: bool> {
-    x: &'a [Real],
-    dinv: &'a [Real],
+struct Packed<'a, T, const N: usize, const P: bool> {
+    x: &'a [T],
+    dinv: &'a [T],
     /// `perm[i]` is the original row of position `i` (see [`Self::row`]).
     perm: &'a [u8],
 }
 
-impl<'a, const N: usize, const P: bool> Packed<'a, N, P> {
+impl<'a, T: Lane, const N: usize, const P: bool> Packed<'a, T, N, P> {
     /// The factors stored at the start of `a` by [`invert_and_pack`] and of `perm`.
     #[inline(always)]
-    fn new(a: &'a [Real], perm: &'a [u8]) -> Self {
+    fn new(a: &'a [T], perm: &'a [u8]) -> Self {
         let o = N * (N - 1) / 2;
         Self {
             x: &a[..o],
@@ -1716,8 +1738,8 @@ impl<'a, const N: usize, const P: bool> Packed<'a, N, P> {
         clippy::needless_range_loop,
         reason = "index loops with compile-time bounds, fully unrolled"
     )]
-    fn lower_solve(&self, v: &[Real]) -> [Real; N] {
-        let vp: [Real; N] = std::array::from_fn(|i| v[self.row(i)]);
+    fn lower_solve(&self, v: &[T]) -> [T; N] {
+        let vp: [T; N] = std::array::from_fn(|i| v[self.row(i)]);
         let mut y = vp;
         for i in 0..N {
             for k in 0..N {
@@ -1735,7 +1757,7 @@ impl<'a, const N: usize, const P: bool> Packed<'a, N, P> {
         clippy::needless_range_loop,
         reason = "index loops with compile-time bounds, fully unrolled"
     )]
-    fn upper_solve_into(&self, t: [Real; N], out: &mut [Real]) {
+    fn upper_solve_into(&self, t: [T; N], out: &mut [T]) {
         let mut x = t;
         for k in 0..N {
             for j in 0..N {
@@ -1758,9 +1780,9 @@ impl<'a, const N: usize, const P: bool> Packed<'a, N, P> {
         clippy::needless_range_loop,
         reason = "index loops with compile-time bounds, fully unrolled"
     )]
-    fn scaled_into(&self, y: [Real; N], out: &mut [Real]) -> [Real; N] {
+    fn scaled_into(&self, y: [T; N], out: &mut [T]) -> [T; N] {
         let out = &mut out[..N];
-        let mut u = [0.0; N];
+        let mut u = [T::ZERO; N];
         for i in 0..N {
             u[i] = y[i] * self.dinv[i];
             out[i] = u[i];
