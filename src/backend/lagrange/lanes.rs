@@ -1,18 +1,29 @@
-//! Islands of one structure stepped four at a time, their factorisations in SIMD lanes.
+//! Islands of one structure stepped four at a time, their KKT factorisations and solves in
+//! SIMD lanes.
 //!
 //! Many scenes repeat a mechanism: the mixed scene's arms are copies of one five-body arm, a
 //! crowd of ragdolls or a row of doors are copies of one another. Islands whose KKT systems
 //! have the same structure ([`KktSolver::same_structure`]: the same bodies and joint blocks)
 //! and that come one after another in the island list form a *lane group* of [`LANES`]. When
 //! all four take the plain kernel ([`Island::lane_ready`]) in a step, their substeps run in
-//! lockstep: each island's stages up to the factorisation at `q_(n+1)` as its own
-//! ([`Island::before_factor`]), the four factorisations at once in the lanes of one SIMD register
-//! ([`KktSolver::factor_lanes`]), then each island's velocity projection
-//! ([`Island::after_factor`]). Each lane runs the scalar factorisation's operations in the
-//! same order, so every island ends its step where it would alone, to the bit
-//! (`tests/island_lanes.rs`). A group in which some lane's block needs what the lanes leave
-//! to the scalar path (pivoting, a non-finite value) is factored island by island in that
-//! substep.
+//! lockstep, stage by stage as [`Island::before_factor`] and [`Island::after_factor`] run
+//! them for one island:
+//!
+//! | stage | per island | in lanes |
+//! |---|---|---|
+//! | kick (and velocity solve), drift | yes | |
+//! | position projection: its iterations, each step's displacement | yes | each chord step's solve ([`solve_group`]) |
+//! | mass blocks | yes | |
+//! | factorisation at `q_(n+1)` | its report | assembly, block steps, Schur updates, inversion ([`KktSolver::factor_lanes`]) |
+//! | velocity projection and its refinements | right-hand sides, velocities | the solves ([`solve_group`]) |
+//!
+//! Each lane runs the scalar operations in the same order, so every island ends its step
+//! where it would alone, to the bit (`tests/island_lanes.rs`). A group in which some lane's
+//! block needs what the lanes leave to the scalar path (pivoting, a non-finite value) is
+//! factored island by island in that substep, and its solves follow (the lanes no longer
+//! hold its factors). The lanes' factors are also unpacked into each island's own solver,
+//! for the solves that stay scalar (a lone island's, the velocity solve of an island that does
+//! not drift free, Gauss-Newton's near a singular pose).
 //!
 //! Where the islands differ in kind (an arm with a stop or a spring among plain ones) or in
 //! structure, they step one by one as before. An error in a group stops the step at the
@@ -26,7 +37,7 @@ use crate::math::rapier::dynamics::RigidBodySet;
 use crate::solver::kkt::{FactorInputs, FactorReport, KktLanes, KktSolver};
 use crate::solver::lane::LANES;
 
-use super::Island;
+use super::{Island, MAX_VELOCITY_REFINEMENTS};
 
 /// The islands split into units, in order: a lane group of [`LANES`] islands of one structure
 /// with its lanes' scratch from `pool` (grown to the number of groups), or a single island.
@@ -146,8 +157,8 @@ fn plain_substeps_lanes(
             island.mass_blocks(joints, bodies, h);
         }
         factor_group(group, lanes, time)?;
+        after_factor_lanes(group, lanes, h, time, k + 2 >= n, k + 1 == n)?;
         for island in group.iter_mut() {
-            island.after_factor(h, time, k + 2 >= n, k + 1 == n)?;
             island.factor_valid = Some(h);
         }
     }
@@ -187,32 +198,9 @@ fn project_positions_lanes(
         if !active.iter().any(|&a| a) {
             break;
         }
-        let in_lanes = {
-            let [a, b, c, d] = &mut *group;
-            let [(ka, ra), (kb, rb), (kc, rc), (kd, rd)] = [a, b, c, d].map(|island| {
-                let Island {
-                    kkt, rhs_b, rhs_j, ..
-                } = island;
-                (kkt.as_ref(), (&mut rhs_b[..], &mut rhs_j[..]))
-            });
-            match (ka, kb, kc, kd) {
-                (Some(ka), Some(kb), Some(kc), Some(kd)) => {
-                    let mut rhs = [Some(ra), Some(rb), Some(rc), Some(rd)];
-                    for (r, &a) in rhs.iter_mut().zip(&active) {
-                        if !a {
-                            *r = None;
-                        }
-                    }
-                    KktSolver::solve_lanes([ka, kb, kc, kd], lanes, rhs)
-                }
-                _ => false,
-            }
-        };
+        solve_group(group, lanes, active, time)?;
         for ((island, p), &active) in group.iter_mut().zip(&mut p).zip(&active) {
             if active {
-                if !in_lanes {
-                    island.solve_projection(time)?;
-                }
                 island.apply_projection_step(h);
                 p.stepped();
             }
@@ -220,6 +208,107 @@ fn project_positions_lanes(
     }
     for (island, p) in group.iter_mut().zip(&p) {
         island.end_projection(p, joints, bodies, h, time);
+    }
+    Ok(())
+}
+
+/// [`Island::after_factor`] of a group's four islands in lockstep: the velocity projections'
+/// solves, and their refinements' on the step's last substep, in lanes (see
+/// [`solve_group`]).
+fn after_factor_lanes(
+    group: &mut [Island; LANES],
+    lanes: &mut KktLanes,
+    h: Real,
+    time: Real,
+    ending: bool,
+    last: bool,
+) -> Result<(), Error> {
+    let mut active = [false; LANES];
+    for (island, active) in group.iter_mut().zip(&mut active) {
+        *active = ending || !island.merges_velocity_projection();
+        if *active {
+            island.end_momenta(h);
+            island.velocity_rhs();
+        } else {
+            island.vp_carry.fill(0.0);
+            if island.second_any {
+                island.half_kick(h);
+            }
+        }
+    }
+    solve_group(group, lanes, active, time)?;
+    for (island, &active) in group.iter_mut().zip(&active) {
+        if active {
+            island.take_velocity_solve(false);
+        }
+    }
+    let mut previous = [Real::INFINITY; LANES];
+    for _ in 0..if last { MAX_VELOCITY_REFINEMENTS } else { 0 } {
+        for ((island, active), previous) in group.iter_mut().zip(&mut active).zip(&mut previous) {
+            *active = *active && island.refinement_rhs(previous);
+        }
+        if !active.iter().any(|&a| a) {
+            break;
+        }
+        solve_group(group, lanes, active, time)?;
+        for (island, &active) in group.iter_mut().zip(&active) {
+            if active {
+                island.take_velocity_solve(true);
+            }
+        }
+    }
+    for island in group.iter_mut() {
+        island.last_h = h;
+    }
+    Ok(())
+}
+
+/// Fewest active islands whose solves [`solve_group`] takes in lanes: with one, the four-lane
+/// solve cost more than the scalar one (mixed scene of 20 arms, callgrind: 3 792 906
+/// instructions per step with the lanes for any number, 3 702 390 from two on, 3 702 226 from
+/// four; the chord iterations' second steps are often one island's).
+const MIN_ACTIVE: usize = 2;
+
+/// Solves the `active` islands' `rhs_b`, `rhs_j` in place: in lanes where at least
+/// [`MIN_ACTIVE`] are active and the lanes hold the four islands' factors (the last
+/// factorisation of each was the group's in lanes, see [`KktSolver::solve_lanes`]; an
+/// inactive island solves a zero lane, dropped), island by island otherwise (or where an
+/// island refactorised since: Gauss-Newton near a singular pose).
+fn solve_group(
+    group: &mut [Island; LANES],
+    lanes: &mut KktLanes,
+    active: [bool; LANES],
+    time: Real,
+) -> Result<(), Error> {
+    let in_lanes = {
+        let [a, b, c, d] = &mut *group;
+        let [(ka, ra), (kb, rb), (kc, rc), (kd, rd)] = [a, b, c, d].map(|island| {
+            let Island {
+                kkt, rhs_b, rhs_j, ..
+            } = island;
+            (kkt.as_ref(), (&mut rhs_b[..], &mut rhs_j[..]))
+        });
+        match (ka, kb, kc, kd) {
+            (Some(ka), Some(kb), Some(kc), Some(kd))
+                if active.iter().filter(|&&a| a).count() >= MIN_ACTIVE =>
+            {
+                let mut rhs = [Some(ra), Some(rb), Some(rc), Some(rd)];
+                for (r, &a) in rhs.iter_mut().zip(&active) {
+                    if !a {
+                        *r = None;
+                    }
+                }
+                KktSolver::solve_lanes([ka, kb, kc, kd], lanes, rhs)
+            }
+            _ => false,
+        }
+    };
+    if !in_lanes {
+        for (island, &active) in group.iter_mut().zip(&active) {
+            if active {
+                island.solve_rhs(time)?;
+            }
+        }
     }
     Ok(())
 }

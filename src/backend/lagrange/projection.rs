@@ -16,7 +16,7 @@ use super::substep::SUZUKI;
 use super::{
     BACKTRACKS, CHORD_MARGIN, Island, MAX_PROJECTION_ITERATIONS, MU_HISTORY, REGULARISATION_LOOPS,
     SMOOTH, STAGES, WARM_AXES_TOLERANCE, WARM_START_LIMIT, WarmAxes, Warning, angular_block,
-    displace, kkt_err, projection_tolerance,
+    displace, projection_tolerance,
 };
 
 /// A position projection between its steps (see [`Island::project_positions`]): its
@@ -149,6 +149,7 @@ impl Island {
     }
 
     /// A position projection's start: its tolerances and the warm start.
+    #[inline(always)]
     pub(super) fn begin_projection(
         &mut self,
         joints: &JointSet,
@@ -204,6 +205,7 @@ impl Island {
     /// to `BACKTRACKS` times), and otherwise undone with a regularisation raised tenfold. Far
     /// from the tolerance, the chord iteration also hands over to Gauss-Newton where it
     /// converges too slowly to reach the tolerance within the iteration limit at its last rate.
+    #[inline(always)]
     pub(super) fn projection_round(
         &mut self,
         p: &mut Projection,
@@ -274,6 +276,7 @@ impl Island {
 
     /// The projection's end: its report, the correction fed into the velocity, the rows'
     /// terms at `q_(n+1)`.
+    #[inline(always)]
     pub(super) fn end_projection(
         &mut self,
         p: &Projection,
@@ -447,7 +450,7 @@ impl Island {
     /// bodies, remembering the step so that it can be undone.
     fn projection_step(&mut self, h: Real, time: Real) -> Result<(), Error> {
         self.clear_projection_rhs();
-        self.solve_projection(time)?;
+        self.solve_rhs(time)?;
         self.apply_projection_step(h);
         Ok(())
     }
@@ -460,18 +463,10 @@ impl Island {
         }
     }
 
-    /// The solve of a projection step ([`Island::clear_projection_rhs`] first): the
-    /// displacement into `rhs_b`, the multipliers into `rhs_j`.
-    pub(super) fn solve_projection(&mut self, time: Real) -> Result<(), Error> {
-        let Some(kkt) = self.kkt.as_ref() else {
-            return Ok(());
-        };
-        kkt.solve(&mut self.rhs_b, &mut self.rhs_j)
-            .map_err(|e| kkt_err(e, time))
-    }
-
-    /// A projection step's solution ([`Island::solve_projection`]) applied: the bodies
+    /// A projection step's solution ([`Island::solve_rhs`]: the displacement in `rhs_b`, the
+    /// multipliers in `rhs_j`) applied: the bodies
     /// displaced, the multipliers booked, the step kept to be undone.
+    #[inline(always)]
     pub(super) fn apply_projection_step(&mut self, h: Real) {
         if self.kkt.is_none() {
             return;

@@ -390,7 +390,7 @@ impl Island {
     /// point), and the skipped projection's second half kick still acts
     /// ([`Island::half_kick`]). (Should the next substep take the velocity solve instead, that
     /// solve projects the same way: the kicks between are linear on isotropic bodies.)
-    fn merges_velocity_projection(&self) -> bool {
+    pub(super) fn merges_velocity_projection(&self) -> bool {
         !self.composed
             && (!self.second_any || self.free_h > 0.0)
             && !self.penalty.iter().any(|&p| p)
@@ -795,7 +795,7 @@ impl Island {
     /// RATTLE's second half kick (the forces at `q_(n+1)`) on the bodies' velocities, where
     /// the velocity projection after it is left to the next substep (isotropic bodies: no
     /// gyroscopic term).
-    fn half_kick(&mut self, h: Real) {
+    pub(super) fn half_kick(&mut self, h: Real) {
         let hh = 0.5 * h;
         for (s, &second) in self.st.iter_mut().zip(&self.second) {
             if second {
@@ -807,7 +807,7 @@ impl Island {
 
     /// Stage 4, first half: the momenta at `q_(n+1)` into `rhs_b`, with RATTLE's second half
     /// kick (the forces at `q_(n+1)`) on second-order bodies.
-    fn end_momenta(&mut self, h: Real) {
+    pub(super) fn end_momenta(&mut self, h: Real) {
         for i in 0..self.bodies.len() {
             let s = &self.st[i];
             let (v, w) = if self.second[i] {
@@ -860,8 +860,29 @@ impl Island {
     /// them (the positions converged at orders 2.00 and 4.0 with the residual left in every
     /// substep), and refining every substep cost 10 % of the mixed scene's step.
     pub(super) fn project_velocities(&mut self, time: Real, refine: bool) -> Result<(), Error> {
-        let Some(kkt) = self.kkt.as_ref() else {
+        if self.kkt.is_none() {
             return Ok(());
+        }
+        self.velocity_rhs();
+        self.solve_rhs(time)?;
+        self.take_velocity_solve(false);
+        let mut previous = Real::INFINITY;
+        for _ in 0..if refine { MAX_VELOCITY_REFINEMENTS } else { 0 } {
+            if !self.refinement_rhs(&mut previous) {
+                break;
+            }
+            self.solve_rhs(time)?;
+            self.take_velocity_solve(true);
+        }
+        Ok(())
+    }
+
+    /// The velocity projection's right-hand side (the momenta in `rhs_b` from
+    /// [`Island::end_momenta`]): each hard row's prescribed rate, a penalty row's own.
+    #[inline(always)]
+    pub(super) fn velocity_rhs(&mut self) {
+        let Some(kkt) = self.kkt.as_ref() else {
+            return;
         };
         // A penalty row is a spring, not a velocity constraint: the implicit velocity solve
         // above already gave it the force k times its end-of-substep deflection. Here it
@@ -877,42 +898,48 @@ impl Island {
                 self.rhs_j[r] = self.rate[r] - self.kin[r];
             }
         }
-        kkt.solve(&mut self.rhs_b, &mut self.rhs_j)
-            .map_err(|e| kkt_err(e, time))?;
-        self.take_velocity_solve(false);
-        let tol = velocity_tolerance();
-        let mut previous = Real::INFINITY;
-        for _ in 0..if refine { MAX_VELOCITY_REFINEMENTS } else { 0 } {
-            let Some(kkt) = self.kkt.as_ref() else {
-                break;
+    }
+
+    /// A refinement's right-hand side: the hard rows' residual rates, the bodies' zero. Returns
+    /// whether to take it: not when the residual is within [`velocity_tolerance`], NaN, or not
+    /// halved since the last (`previous`, updated).
+    #[inline(always)]
+    pub(super) fn refinement_rhs(&mut self, previous: &mut Real) -> bool {
+        let Some(kkt) = self.kkt.as_ref() else {
+            return false;
+        };
+        row_rates(kkt, &self.jac, &self.st, &mut self.rhs_j);
+        let mut worst: Real = 0.0;
+        for r in 0..self.rhs_j.len() {
+            self.rhs_j[r] = if self.penalty[r] {
+                0.0
+            } else {
+                self.rate[r] - self.kin[r] - self.rhs_j[r]
             };
-            row_rates(kkt, &self.jac, &self.st, &mut self.rhs_j);
-            let mut worst: Real = 0.0;
-            for r in 0..self.rhs_j.len() {
-                self.rhs_j[r] = if self.penalty[r] {
-                    0.0
-                } else {
-                    self.rate[r] - self.kin[r] - self.rhs_j[r]
-                };
-                worst = worst.max(self.rhs_j[r].abs());
-            }
-            if worst <= tol || worst.is_nan() || worst > 0.5 * previous {
-                break;
-            }
-            previous = worst;
-            for b in self.rhs_b.iter_mut() {
-                *b = [0.0; 6];
-            }
-            kkt.solve(&mut self.rhs_b, &mut self.rhs_j)
-                .map_err(|e| kkt_err(e, time))?;
-            self.take_velocity_solve(true);
+            worst = worst.max(self.rhs_j[r].abs());
         }
-        Ok(())
+        if worst <= velocity_tolerance() || worst.is_nan() || worst > 0.5 * *previous {
+            return false;
+        }
+        *previous = worst;
+        for b in self.rhs_b.iter_mut() {
+            *b = [0.0; 6];
+        }
+        true
+    }
+
+    /// Solves `rhs_b`, `rhs_j` in place on the island's factorisation.
+    pub(super) fn solve_rhs(&mut self, time: Real) -> Result<(), Error> {
+        let Some(kkt) = self.kkt.as_ref() else {
+            return Ok(());
+        };
+        kkt.solve(&mut self.rhs_b, &mut self.rhs_j)
+            .map_err(|e| kkt_err(e, time))
     }
 
     /// Books a velocity projection's multipliers (`rhs_j`) into the impulses and takes its
     /// velocities (`rhs_b`) as the bodies', or adds them (`add`: a refinement's correction).
-    fn take_velocity_solve(&mut self, add: bool) {
+    pub(super) fn take_velocity_solve(&mut self, add: bool) {
         if !add {
             self.vp_carry.fill(0.0);
         }

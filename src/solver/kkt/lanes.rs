@@ -49,6 +49,10 @@ impl Default for KktLanes {
     }
 }
 
+/// One system's right-hand side, solved in place: the bodies' and the joints' parts (see
+/// [`KktSolver::solve`]).
+pub(crate) type Rhs<'a> = (&'a mut [[Real; 6]], &'a mut [Real]);
+
 impl Inputs<Lanes> for [FactorInputs<'_>; LANES] {
     #[inline(always)]
     fn mass(&self, b: usize) -> impl Fn(usize) -> Lanes + '_ {
@@ -190,7 +194,7 @@ impl KktSolver {
     pub(crate) fn solve_lanes(
         solvers: [&KktSolver; LANES],
         lanes: &mut KktLanes,
-        mut rhs: [Option<(&mut [[Real; 6]], &mut [Real])>; LANES],
+        mut rhs: [Option<Rhs<'_>>; LANES],
     ) -> bool {
         let t = solvers[0];
         let (nb, rows) = (t.nb, t.num_rows());
@@ -211,7 +215,13 @@ impl KktSolver {
             std::array::from_fn(|l| rhs[l].as_ref().map(|(_, j)| &j[..]));
         gather(&mut lanes.rhs_b, b, 6 * nb);
         gather(&mut lanes.rhs_j, j, rows);
-        substitute::<Lanes, false>(&t.shape, &lanes.num, &t.perms, &mut lanes.rhs_b, &mut lanes.rhs_j);
+        substitute::<Lanes, false>(
+            &t.shape,
+            &lanes.num,
+            &t.perms,
+            &mut lanes.rhs_b,
+            &mut lanes.rhs_j,
+        );
         for (l, slot) in rhs.iter_mut().enumerate() {
             let Some((b, j)) = slot else { continue };
             for (x, v) in b.as_flattened_mut().iter_mut().zip(&lanes.rhs_b) {
