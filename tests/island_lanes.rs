@@ -6,8 +6,8 @@
 //! stepped a second time alone in its own world (one island: the scalar path). Exact equality
 //! is the tolerance: every lane runs the scalar factorisation's operations in the same order,
 //! so any difference, in a body's pose or velocity or in a joint's output, is a lane leaking
-//! into another or an operation out of order. The backend's count of factorisations taken in
-//! lanes shows that the lanes ran: eight islands, four substeps per step.
+//! into another or an operation out of order. The backend's counts show that the lanes ran:
+//! eight islands' factorisations, four substeps per step, and their solves.
 
 use rapier3d_mpc184::math::rapier::dynamics::RigidBodyHandle;
 use rapier3d_mpc184::math::rapier::prelude::{MassProperties, RigidBodyBuilder};
@@ -75,16 +75,20 @@ fn islands_in_lanes_step_as_they_step_alone() {
             (w, b, j)
         })
         .collect();
-    let mut in_lanes = 0;
+    let (mut in_lanes, mut solves) = (0, 0);
     for _ in 0..STEPS {
         many.step().unwrap();
         in_lanes += many.lagrange_diagnostics().lane_factorisations;
+        solves += many.lagrange_diagnostics().lane_solves;
         for (w, ..) in &mut alone {
             w.step().unwrap();
             assert_eq!(w.lagrange_diagnostics().lane_factorisations, 0);
         }
     }
     assert_eq!(in_lanes, 8 * 4 * STEPS);
+    // Each substep's position projection takes a chord step at least, and the step's last two
+    // substeps project the velocities: at least six solves per island and step.
+    assert!(solves >= 8 * 6 * STEPS, "{solves} solves in lanes");
     for ((beads, joints), (w, beads1, joints1)) in arms.iter().zip(&alone) {
         for (a, b) in beads.iter().zip(beads1) {
             let (ra, rb) = (&many.physics.bodies[*a], &w.physics.bodies[*b]);

@@ -303,9 +303,11 @@ fn solve_group(
             _ => false,
         }
     };
-    if !in_lanes {
-        for (island, &active) in group.iter_mut().zip(&active) {
-            if active {
+    for (island, &active) in group.iter_mut().zip(&active) {
+        if active {
+            if in_lanes {
+                island.report.lane_solves += 1;
+            } else {
                 island.solve_rhs(time)?;
             }
         }

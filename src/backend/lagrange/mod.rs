@@ -341,6 +341,10 @@ pub struct LagrangeDiagnostics {
     /// The results are those of the islands stepped one by one, to the bit; only the cost
     /// differs.
     pub lane_factorisations: usize,
+    /// Solves in the last step taken in SIMD lanes on the factors of
+    /// [`Self::lane_factorisations`] (counted per island: the position projections' chord
+    /// steps and the velocity projections, where two or more islands of a group take one).
+    pub lane_solves: usize,
     /// Warnings issued once (redundant constraints, unconverged projections).
     pub warnings: Vec<String>,
 }
@@ -358,6 +362,7 @@ impl LagrangeDiagnostics {
         first_order_steps: 0,
         implicit_springs: 0,
         lane_factorisations: 0,
+        lane_solves: 0,
         warnings: Vec::new(),
     };
 }
@@ -394,6 +399,7 @@ struct IslandReport {
     second_order_bodies: usize,
     implicit_springs: usize,
     lane_factorisations: usize,
+    lane_solves: usize,
     /// Warnings raised in the step (kept once per kind by the backend).
     warnings: Vec<(Warning, String)>,
 }
@@ -787,6 +793,7 @@ impl LagrangeBackend {
         d.second_order_bodies = 0;
         d.implicit_springs = 0;
         d.lane_factorisations = 0;
+        d.lane_solves = 0;
         for island in &mut self.islands {
             let r = &mut island.report;
             d.redundant_rows += r.redundant_rows;
@@ -798,6 +805,7 @@ impl LagrangeBackend {
             d.second_order_bodies += r.second_order_bodies;
             d.implicit_springs += r.implicit_springs;
             d.lane_factorisations += r.lane_factorisations;
+            d.lane_solves += r.lane_solves;
             for (kind, text) in r.warnings.drain(..) {
                 if !self.warned.contains(&kind) {
                     self.warned.push(kind);
