@@ -101,12 +101,14 @@ impl KktSolver {
     /// lanes (see the module docs): afterwards each solver holds the factors its own
     /// [`Self::factor`] gives, bit for bit, and no row is dropped. Returns `false` where a
     /// lane needs the scalar path (see the module docs): the solvers are then unchanged and
-    /// each is to be factored by [`Self::factor`].
+    /// each is to be factored by [`Self::factor`] (the lanes hold no factors then).
     pub(crate) fn factor_lanes(
         solvers: [&mut KktSolver; LANES],
         lanes: &mut KktLanes,
         inputs: [FactorInputs<'_>; LANES],
     ) -> bool {
+        // Whatever happens below, the lanes no longer hold any solver's factors.
+        lanes.stamps = [0; LANES];
         let t = &*solvers[0];
         let rows = t.num_rows();
         if inputs.iter().any(|x| {
