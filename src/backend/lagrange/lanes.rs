@@ -281,15 +281,14 @@ fn solve_group(
     time: Real,
 ) -> Result<(), Error> {
     let in_lanes = {
-        let [a, b, c, d] = &mut *group;
-        let [(ka, ra), (kb, rb), (kc, rc), (kd, rd)] = [a, b, c, d].map(|island| {
+        let [a, b, c, d] = group.each_mut().map(|island| {
             let Island {
                 kkt, rhs_b, rhs_j, ..
             } = island;
-            (kkt.as_ref(), (&mut rhs_b[..], &mut rhs_j[..]))
+            Some((kkt.as_ref()?, (&mut rhs_b[..], &mut rhs_j[..])))
         });
-        match (ka, kb, kc, kd) {
-            (Some(ka), Some(kb), Some(kc), Some(kd))
+        match (a, b, c, d) {
+            (Some((ka, ra)), Some((kb, rb)), Some((kc, rc)), Some((kd, rd)))
                 if active.iter().filter(|&&a| a).count() >= MIN_ACTIVE =>
             {
                 let mut rhs = [Some(ra), Some(rb), Some(rc), Some(rd)];
@@ -323,8 +322,7 @@ fn factor_group(
     time: Real,
 ) -> Result<(), Error> {
     let in_lanes = {
-        let [a, b, c, d] = &mut *group;
-        match (parts(a), parts(b), parts(c), parts(d)) {
+        match group.each_mut().map(parts).into() {
             (Some((ka, ia)), Some((kb, ib)), Some((kc, ic)), Some((kd, id))) => {
                 KktSolver::factor_lanes([ka, kb, kc, kd], lanes, [ia, ib, ic, id])
             }
