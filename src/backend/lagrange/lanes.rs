@@ -166,10 +166,8 @@ fn plain_substeps_lanes(
 }
 
 /// [`Island::project_positions`] of a group's four islands in lockstep: each island's
-/// iterations as its own, the steps' solves in lanes where the lanes hold the islands' factors
-/// (the last factorisation of each was the group's in lanes), an island that has converged
-/// solving a zero lane, dropped; island by island otherwise (an island that refactorised:
-/// Gauss-Newton near a singular pose).
+/// iterations as its own, each round's steps solved together ([`solve_group`]: in lanes, or
+/// island by island).
 fn project_positions_lanes(
     group: &mut [Island; LANES],
     lanes: &mut KktLanes,
