@@ -1,13 +1,14 @@
-//! Islands factored four at a time in SIMD lanes step exactly as they step alone. Nine arms of
+//! Islands factored four at a time in SIMD lanes step exactly as they step alone. 17 arms of
 //! the mixed scene (five beads on a revolute z, spherical, cylindrical z, revolute x and
 //! translational joint), each with its own bead mass (so that the four lanes of a group carry
-//! different values) and a different first impulse: arms 0-3 and 4-7 form two lane groups
-//! (one after another in the world, one structure), arm 8 a unit of its own. Each arm is
+//! different values) and a different first impulse: arms 0-15 form four lane groups (one after
+//! another in the world, one structure; the `parallel` build takes groups from four on), arm
+//! 16 a unit of its own. Each arm is
 //! stepped a second time alone in its own world (one island: the scalar path). Exact equality
 //! is the tolerance: every lane runs the scalar factorisation's operations in the same order,
 //! so any difference, in a body's pose or velocity or in a joint's output, is a lane leaking
 //! into another or an operation out of order. The backend's counts show that the lanes ran:
-//! eight islands' factorisations, four substeps per step, and their solves.
+//! sixteen islands' factorisations, four substeps per step, and their solves.
 
 use rapier3d_mpc184::math::rapier::dynamics::RigidBodyHandle;
 use rapier3d_mpc184::math::rapier::prelude::{MassProperties, RigidBodyBuilder};
@@ -64,7 +65,7 @@ fn arm(world: &mut Mpc184World, k: usize) -> (Vec<RigidBodyHandle>, Vec<JointId>
 
 #[test]
 fn islands_in_lanes_step_as_they_step_alone() {
-    const ARMS: usize = 9;
+    const ARMS: usize = 17;
     const STEPS: usize = 60;
     let mut many = world();
     let arms: Vec<_> = (0..ARMS).map(|k| arm(&mut many, k)).collect();
@@ -85,10 +86,10 @@ fn islands_in_lanes_step_as_they_step_alone() {
             assert_eq!(w.lagrange_diagnostics().lane_factorisations, 0);
         }
     }
-    assert_eq!(in_lanes, 8 * 4 * STEPS);
+    assert_eq!(in_lanes, 16 * 4 * STEPS);
     // Each substep's position projection takes a chord step at least, and the step's last two
     // substeps project the velocities: at least six solves per island and step.
-    assert!(solves >= 8 * 6 * STEPS, "{solves} solves in lanes");
+    assert!(solves >= 16 * 6 * STEPS, "{solves} solves in lanes");
     for ((beads, joints), (w, beads1, joints1)) in arms.iter().zip(&alone) {
         for (a, b) in beads.iter().zip(beads1) {
             let (ra, rb) = (&many.physics.bodies[*a], &w.physics.bodies[*b]);

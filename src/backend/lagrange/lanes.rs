@@ -39,8 +39,14 @@ use crate::solver::lane::LANES;
 
 use super::{Island, MAX_VELOCITY_REFINEMENTS};
 
+/// Fewest lane groups for the `parallel` build's pool to take them as groups (see [`units`]):
+/// two a thread on a 2-core machine.
+#[cfg(feature = "parallel")]
+const MIN_POOL_GROUPS: usize = 4;
+
 /// The islands split into units, in order: a lane group of [`LANES`] islands of one structure
-/// with its lanes' scratch from `pool` (grown to the number of groups), or a single island.
+/// with its lanes' scratch from `pool` (grown to the number of groups), or a single island;
+/// single islands only where the groups would be fewer than [`MIN_POOL_GROUPS`].
 #[cfg(feature = "parallel")]
 pub(super) fn units<'a>(
     islands: &'a mut [Island],
@@ -53,7 +59,15 @@ pub(super) fn units<'a>(
         lens.push(len);
         i += len;
     }
-    let groups = lens.iter().filter(|&&l| l == LANES).count();
+    let mut groups = lens.iter().filter(|&&l| l == LANES).count();
+    // A group is one task of the pool, four islands long: with few groups the pool cannot
+    // balance them, and the lanes' saving is lost to the wait (the mixed scene of 10 arms, two
+    // groups and two single islands on two threads, stepped 110 -> 141 us, fastest mean of
+    // eight interleaved probe runs). Then every island is a task of its own.
+    if groups < MIN_POOL_GROUPS {
+        lens = vec![1; islands.len()];
+        groups = 0;
+    }
     if pool.len() < groups {
         pool.resize_with(groups, KktLanes::default);
     }

@@ -21,13 +21,16 @@ use crate::solver::lane::{LANES, Lanes};
 
 /// The lane values of a group of [`LANES`] solvers of the same structure (scratch of
 /// [`KktSolver::factor_lanes`], kept from call to call so that it does not allocate).
+/// Aligned to two cache lines: the pool's groups step on different threads with `parallel`,
+/// and a solve writes its scratch vectors' lengths here.
 #[derive(Clone, Debug)]
+#[repr(align(128))]
 pub(crate) struct KktLanes {
     num: Numeric<Lanes>,
     /// Identity permutations of every pivot, as the scalar unpivoted steps write them.
     perms: Vec<u8>,
     /// The stamps of the four factorisations `num` holds (see [`KktSolver::solve_lanes`]).
-    stamps: [u64; LANES],
+    stamps: [Stamp; LANES],
     /// A solve's right-hand sides in lanes (bodies flattened, joints).
     rhs_b: Vec<Lanes>,
     rhs_j: Vec<Lanes>,
@@ -42,7 +45,7 @@ impl Default for KktLanes {
                 offd: Vec::new(),
             },
             perms: Vec::new(),
-            stamps: [0; LANES],
+            stamps: [(0, 0); LANES],
             rhs_b: Vec::new(),
             rhs_j: Vec::new(),
         }
@@ -108,7 +111,7 @@ impl KktSolver {
         inputs: [FactorInputs<'_>; LANES],
     ) -> bool {
         // Whatever happens below, the lanes no longer hold any solver's factors.
-        lanes.stamps = [0; LANES];
+        lanes.stamps = [(0, 0); LANES];
         let t = &*solvers[0];
         let rows = t.num_rows();
         if inputs.iter().any(|x| {
@@ -181,7 +184,7 @@ impl KktSolver {
             s.dropped.clear();
             s.pivoted = false;
             s.factored = true;
-            s.stamp = next_stamp();
+            s.stamp.1 += 1;
             *stamp = s.stamp;
         }
         true
@@ -203,7 +206,7 @@ impl KktSolver {
         let held = solvers
             .iter()
             .zip(&lanes.stamps)
-            .all(|(s, &stamp)| s.factored && s.stamp != 0 && s.stamp == stamp);
+            .all(|(s, &stamp)| s.factored && s.stamp == stamp);
         let fits = rhs
             .iter()
             .flatten()
