@@ -473,9 +473,8 @@ pub struct KktSolver {
     factored: bool,
     /// This solver's and its factorisation's stamp: a number no other solver of the process
     /// was built with (never 0), and the count of its successful factorisations. [`KktLanes`]
-    /// recognises the factors it holds by it. (A process-wide count of factorisations was
-    /// one atomic cache line for every island on every thread: the `parallel` build's mixed
-    /// scene of 10 arms stepped 20 % slower with it.)
+    /// recognises the factors it holds by it. (A process-wide count of factorisations would
+    /// be one atomic cache line written by every island on every thread.)
     stamp: Stamp,
 }
 
