@@ -164,6 +164,48 @@ pub enum StepControl {
         /// extrapolation adds that noise (A01 asked 1e-6 m: 1.6e-8 m, against 1.7e-9 m).
         extrapolate: bool,
     },
+    /// An embedded error estimate to a tolerance, for RATTLE ([`Integrator::Rattle`]): each
+    /// step is run once, at `n` substeps of `h`, and its error estimated from the trajectory's
+    /// own derivatives, which the bodies' velocities at the ends of the last steps give by
+    /// divided differences. RATTLE's local errors per substep are `h^3 / 6 |jerk|` in the
+    /// position and `h^3 / 12 |snap|` in the velocity (the Taylor expansion of the velocity
+    /// Verlet step), so a run over `span` carries
+    ///
+    /// ```text
+    /// estimate = span h^2 / 6 |jerk| + max(horizon, span) span h^2 / 12 |snap|
+    /// ```
+    ///
+    /// per body (its rotation and angular velocity each times its reach, as in
+    /// [`Adaptive`](Self::Adaptive)), the jerk from the last three velocity samples and the
+    /// snap from the last four. The step is kept when the largest estimate is within
+    /// `tolerance`; otherwise it is taken again from its start with the `n` the estimate asks
+    /// for (the estimate scales as `1 / n^2`; a retry aims at 0.8 of the tolerance). The next
+    /// step starts from the `n` this step's estimate predicts (at most 8 times fewer
+    /// substeps). A step costs one run where step doubling costs three, and `n` is any
+    /// integer, not a power of two.
+    ///
+    /// The estimate lags half a step (its samples end at the run's end) and needs three
+    /// steps kept before it (the start, an event, a profile kink or a change of the bodies
+    /// clear the samples): those steps, and steps where an island took the first-order step
+    /// (a contact), are taken by step doubling. Events are located as under
+    /// [`Adaptive`](Self::Adaptive); a run whose position projection fell back to
+    /// Gauss-Newton, or that diverged, is cut to twice the substeps. No energy control (one
+    /// run has no second ledger to compare).
+    ///
+    /// The estimate is not the error: over a run the local errors of an oscillating motion
+    /// partly cancel. Measured at fixed steps, RATTLE at 4 to 32 substeps per 1/30 s over
+    /// 5 s, the achieved trajectory error over the summed position estimates was 0.40 on the
+    /// A01 pendulum, 0.22 on Bricard, 0.15 on the spatial slider-crank and 0.14-0.18 on the
+    /// A02 four-bar (from 16 substeps; at 8 it crossed its singular pose off the branch).
+    /// See `tests/adaptive_embedded.rs`.
+    Embedded {
+        /// Largest estimated position error per step (m).
+        tolerance: Real,
+        /// Most substeps per step (a step that needs more is kept with a note in the stats).
+        max_substeps: usize,
+        /// The time a velocity error is weighed over (s), as in [`Adaptive`](Self::Adaptive).
+        horizon: Real,
+    },
 }
 
 /// Time integration of jointed bodies on the Lagrange backend.

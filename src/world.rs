@@ -52,6 +52,9 @@ pub(crate) struct Core {
     /// What the adaptive step control did so far (outside [`Progress`]: a retry restores that).
     #[cfg_attr(feature = "serde-snapshot", serde(default))]
     pub(crate) stats: StepStats,
+    /// The embedded error estimate's velocity samples ([`StepControl::Embedded`]).
+    #[cfg_attr(feature = "serde-snapshot", serde(default))]
+    pub(crate) history: adaptive::VelocityHistory,
 }
 
 /// What [`StepControl::Adaptive`] did so far ([`Mpc184World::step_stats`]).
@@ -88,6 +91,9 @@ pub struct StepStats {
     pub events: u64,
     /// The last event located.
     pub last_event: Option<StepEvent>,
+    /// Segments kept on the embedded estimate ([`StepControl::Embedded`]; the others took
+    /// step doubling, which refills its samples).
+    pub embedded: u64,
     /// The `n` the next step starts with (0: the settings' substeps).
     next: usize,
 }
@@ -613,6 +619,18 @@ impl Mpc184World {
                 [tolerance, energy_tolerance, horizon],
                 max_substeps,
                 extrapolate,
+                false,
+            ),
+            StepControl::Embedded {
+                tolerance,
+                max_substeps,
+                horizon,
+            } => self.step_adaptive(
+                dt,
+                [tolerance, Real::INFINITY, horizon],
+                max_substeps,
+                false,
+                true,
             ),
         };
         let result = stepped.and_then(|()| match before {
@@ -983,42 +1001,48 @@ impl Mpc184World {
 
 /// A step control's values are usable (see [`Mpc184World::set_step_control`]).
 fn check_control(control: StepControl) -> Result<(), Error> {
-    if let StepControl::Adaptive {
-        tolerance,
-        energy_tolerance,
-        max_substeps,
-        horizon,
-        ..
-    } = control
-    {
-        if !(horizon.is_finite() && horizon >= 0.0) {
-            return Err(Error::InvalidSetting {
-                field: "control.horizon",
-                value: horizon,
-                reason: "the horizon must be finite and not negative (0: the step itself)",
-            });
-        }
-        if energy_tolerance.is_nan() || energy_tolerance <= 0.0 {
-            return Err(Error::InvalidSetting {
-                field: "control.energy_tolerance",
-                value: energy_tolerance,
-                reason: "the energy tolerance must be positive (infinity: no energy control)",
-            });
-        }
-        if !(tolerance.is_finite() && tolerance > 0.0) {
-            return Err(Error::InvalidSetting {
-                field: "control.tolerance",
-                value: tolerance,
-                reason: "the tolerance must be positive and finite",
-            });
-        }
-        if !(2..=1 << 20).contains(&max_substeps) {
-            return Err(Error::InvalidSetting {
-                field: "control.max_substeps",
-                value: max_substeps as Real,
-                reason: "step doubling needs 2 to 2^20 substeps",
-            });
-        }
+    let (tolerance, energy_tolerance, max_substeps, horizon) = match control {
+        StepControl::Fixed => return Ok(()),
+        StepControl::Adaptive {
+            tolerance,
+            energy_tolerance,
+            max_substeps,
+            horizon,
+            ..
+        } => (tolerance, energy_tolerance, max_substeps, horizon),
+        StepControl::Embedded {
+            tolerance,
+            max_substeps,
+            horizon,
+        } => (tolerance, Real::INFINITY, max_substeps, horizon),
+    };
+    if !(horizon.is_finite() && horizon >= 0.0) {
+        return Err(Error::InvalidSetting {
+            field: "control.horizon",
+            value: horizon,
+            reason: "the horizon must be finite and not negative (0: the step itself)",
+        });
+    }
+    if energy_tolerance.is_nan() || energy_tolerance <= 0.0 {
+        return Err(Error::InvalidSetting {
+            field: "control.energy_tolerance",
+            value: energy_tolerance,
+            reason: "the energy tolerance must be positive (infinity: no energy control)",
+        });
+    }
+    if !(tolerance.is_finite() && tolerance > 0.0) {
+        return Err(Error::InvalidSetting {
+            field: "control.tolerance",
+            value: tolerance,
+            reason: "the tolerance must be positive and finite",
+        });
+    }
+    if !(2..=1 << 20).contains(&max_substeps) {
+        return Err(Error::InvalidSetting {
+            field: "control.max_substeps",
+            value: max_substeps as Real,
+            reason: "step doubling needs 2 to 2^20 substeps",
+        });
     }
     Ok(())
 }

@@ -50,7 +50,7 @@ fn wheel(substeps: usize, control: StepControl) -> (Real, u64, Mpc184World, Join
     let err = (world.energy().dissipated - expected).abs() / expected;
     let cost = match control {
         StepControl::Fixed => 60 * substeps as u64,
-        StepControl::Adaptive { .. } => world.step_stats().substeps,
+        StepControl::Adaptive { .. } | StepControl::Embedded { .. } => world.step_stats().substeps,
     };
     (err, cost, world, id)
 }

@@ -73,7 +73,7 @@ fn run(settings: WorldSettings, reference: &[f64]) -> (Real, u64) {
     }
     let cost = match settings.control {
         StepControl::Fixed => (STEPS * settings.substeps) as u64,
-        StepControl::Adaptive { .. } => world.step_stats().substeps,
+        StepControl::Adaptive { .. } | StepControl::Embedded { .. } => world.step_stats().substeps,
     };
     (worst, cost)
 }

@@ -10,17 +10,20 @@ pub(crate) enum Method {
     Rattle,
     /// The Lagrange backend with the fourth-order composition of RATTLE substeps.
     Order4,
-    /// The adaptive step control (step doubling, `StepControl::Adaptive`) on RATTLE or on the
-    /// fourth-order composition, at dt 1/30 over the study's tolerances (the work-precision
-    /// charts only); `horizon`: the velocity difference weighed over half the run (the mean
-    /// time left, the control the docs give for a trajectory tolerance), else over the step
-    /// alone (`-local`: the per-step control a deck's `AUTOTS` gets); `extrapolate` (`-x`):
-    /// each kept doubling extrapolated locally (`StepControl::Adaptive::extrapolate`, as a
-    /// deck's `AUTOTS` does).
+    /// The adaptive step control (step doubling, `StepControl::Adaptive`, or the embedded
+    /// estimate, `StepControl::Embedded`) on RATTLE or on the fourth-order composition, at dt
+    /// 1/30 over the study's tolerances (the work-precision charts only); `horizon`: the
+    /// velocity difference weighed over half the run (the mean time left, the control the
+    /// docs give for a trajectory tolerance), else over the step alone (`-local`: the per-step
+    /// control a deck's `AUTOTS` gets); `extrapolate` (`-x`): each kept doubling extrapolated
+    /// locally (`StepControl::Adaptive::extrapolate`, as a deck's `AUTOTS` does).
     Adaptive {
         order4: bool,
         horizon: bool,
         extrapolate: bool,
+        /// `StepControl::Embedded` (`-e`, RATTLE only): one run per step, its error from the
+        /// velocities of the last steps, instead of step doubling.
+        embedded: bool,
     },
     Penalty(f64),
     Impulse,
@@ -58,36 +61,54 @@ pub(crate) const PEERS: [Method; 4] = [
 ];
 
 /// The adaptive variants, in the order the charts list them.
-pub(crate) const ADAPTIVE: [Method; 6] = [
+pub(crate) const ADAPTIVE: [Method; 8] = [
     Method::Adaptive {
         order4: false,
         horizon: true,
         extrapolate: false,
+        embedded: false,
     },
     Method::Adaptive {
         order4: true,
         horizon: true,
         extrapolate: false,
+        embedded: false,
     },
     Method::Adaptive {
         order4: true,
         horizon: false,
         extrapolate: false,
+        embedded: false,
     },
     Method::Adaptive {
         order4: false,
         horizon: true,
         extrapolate: true,
+        embedded: false,
     },
     Method::Adaptive {
         order4: true,
         horizon: true,
         extrapolate: true,
+        embedded: false,
     },
     Method::Adaptive {
         order4: true,
         horizon: false,
         extrapolate: true,
+        embedded: false,
+    },
+    Method::Adaptive {
+        order4: false,
+        horizon: true,
+        extrapolate: false,
+        embedded: true,
+    },
+    Method::Adaptive {
+        order4: false,
+        horizon: false,
+        extrapolate: false,
+        embedded: true,
     },
 ];
 
@@ -125,11 +146,13 @@ impl Method {
                 order4,
                 horizon,
                 extrapolate,
+                embedded,
             } => format!(
-                "adaptive-{}{}{}",
+                "adaptive-{}{}{}{}",
                 if order4 { "order4" } else { "rattle" },
                 if horizon { "" } else { "-local" },
-                if extrapolate { "-x" } else { "" }
+                if extrapolate { "-x" } else { "" },
+                if embedded { "-e" } else { "" }
             ),
             Method::Penalty(k) => format!("penalty-{k:.0e}"),
             Method::Impulse => "rapier-impulse".into(),
@@ -172,6 +195,16 @@ impl Method {
             Method::Rattle => RGBColor(148, 103, 189),
             Method::Order4 => RGBColor(188, 189, 34),
             Method::Adaptive {
+                embedded: true,
+                horizon: true,
+                ..
+            } => RGBColor(255, 0, 255),
+            Method::Adaptive {
+                embedded: true,
+                horizon: false,
+                ..
+            } => RGBColor(120, 60, 0),
+            Method::Adaptive {
                 order4: false,
                 extrapolate: false,
                 ..
@@ -185,21 +218,25 @@ impl Method {
                 order4: true,
                 horizon: true,
                 extrapolate: false,
+                embedded: false,
             } => RGBColor(110, 112, 0),
             Method::Adaptive {
                 order4: true,
                 horizon: true,
                 extrapolate: true,
+                embedded: false,
             } => RGBColor(230, 97, 1),
             Method::Adaptive {
                 order4: true,
                 horizon: false,
                 extrapolate: false,
+                embedded: false,
             } => RGBColor(0, 128, 128),
             Method::Adaptive {
                 order4: true,
                 horizon: false,
                 extrapolate: true,
+                embedded: false,
             } => RGBColor(1, 102, 94),
             Method::Penalty(k) if k < 1e5 => RGBColor(255, 187, 120),
             Method::Penalty(k) if k < 1e7 => RGBColor(255, 127, 14),

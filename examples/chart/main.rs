@@ -352,18 +352,24 @@ fn adaptive_run(
     let dt = OUTPUT_STEP;
     let mut b = build(scene, cfg, method, dt, 1)?;
     let secs = cfg.durations[scene.index()];
-    b.world
-        .set_step_control(StepControl::Adaptive {
-            tolerance: (tol * dt / secs) as Real,
+    // A velocity error grows into a phase drift over the rest of the run, weighed over the
+    // mean time left (`-local`, the step alone: A02's error reached 6.5 times the request).
+    let horizon = match method {
+        Method::Adaptive { horizon: true, .. } => (secs / 2.0) as Real,
+        _ => 0.0,
+    };
+    let tolerance = (tol * dt / secs) as Real;
+    let control = match method {
+        Method::Adaptive { embedded: true, .. } => StepControl::Embedded {
+            tolerance,
+            max_substeps: 4096,
+            horizon,
+        },
+        _ => StepControl::Adaptive {
+            tolerance,
             energy_tolerance: Real::INFINITY,
             max_substeps: 4096,
-            // A velocity error grows into a phase drift over the rest of the run, weighed over
-            // the mean time left (`-local`, the step alone: A02's error reached 6.5 times the
-            // request).
-            horizon: match method {
-                Method::Adaptive { horizon: true, .. } => (secs / 2.0) as Real,
-                _ => 0.0,
-            },
+            horizon,
             extrapolate: matches!(
                 method,
                 Method::Adaptive {
@@ -371,8 +377,9 @@ fn adaptive_run(
                     ..
                 }
             ),
-        })
-        .ok()?;
+        },
+    };
+    b.world.set_step_control(control).ok()?;
     let (cpu, traj, energy, gap, status) = simulate(
         scene,
         b,

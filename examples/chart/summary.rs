@@ -245,7 +245,7 @@ fn adaptive_table(s: &mut String, rs: &[&Run], floor: f64) {
     let _ = writeln!(
         s,
         "\nAdaptive step control (dt 1/30, step doubling, per-step tolerance = requested x dt / duration, \
-         the velocity difference weighed over duration / 2; `-local`: over the step alone; `-x`: each kept doubling extrapolated locally; a deck's AUTOTS is `-local-x`):\n\n\
+         the velocity difference weighed over duration / 2; `-local`: over the step alone; `-x`: each kept doubling extrapolated locally; `-e`: the embedded estimate, one RATTLE run per step, instead of step doubling; a deck's AUTOTS is `-local-x`):\n\n\
          | method | requested (m) | achieved (m) | achieved / requested | CPU s/s | cheapest fixed step reaching it (CPU / its) | the same on the Lagrange backend | status |\n|---|---|---|---|---|---|---|---|"
     );
     for r in adaptive {

@@ -46,6 +46,9 @@ use crate::output::EnergyLedger;
 
 use super::Mpc184World;
 
+mod embedded;
+pub(crate) use embedded::VelocityHistory;
+
 /// What the adaptive control locates ([`StepControl::Adaptive`](crate::settings::StepControl::Adaptive)):
 /// an onset in a run that was not there at the start of the stretch it integrates.
 ///
@@ -220,7 +223,11 @@ impl Mpc184World {
         [tolerance, energy_tolerance, horizon]: [Real; 3],
         max_substeps: usize,
         extrapolate: bool,
+        embedded: bool,
     ) -> Result<(), Error> {
+        if embedded {
+            self.require_embedded()?;
+        }
         let c = Control {
             tolerance,
             energy_tolerance,
@@ -230,13 +237,19 @@ impl Mpc184World {
             max: max_substeps.max(2),
             dt,
         };
+        // Taken out for the step, put back when it is kept (a step that fails leaves none:
+        // the next steps sample afresh).
+        let mut history = embedded.then(|| std::mem::take(&mut self.core.history));
+        // Under the embedded estimate `n` counts the run's substeps; under step doubling the
+        // coarse run's.
+        let most = if embedded { c.max } else { c.max / 2 };
         let stats = &self.core.stats;
         let mut n = if stats.next == 0 {
             self.core.settings.substeps
         } else {
             stats.next
         }
-        .clamp(1, c.max / 2);
+        .clamp(1, most);
         let t0 = self.time();
         let mut done: Real = 0.0;
         let mut events = 0;
@@ -256,12 +269,15 @@ impl Mpc184World {
             self.save_segment();
             let marks = self.event_marks();
             let watch = (events < MAX_EVENTS).then_some(marks.as_slice());
-            match self.doubling(span, n, &c, watch)? {
+            match self.smooth(span, n, &c, watch, history.as_mut())? {
                 Outcome::Kept(next) => {
                     n = next;
                     self.gather_acted(&mut acted);
                     let Some((time, joint)) = kink else { break };
                     split = true;
+                    if let Some(history) = history.as_mut() {
+                        history.clear();
+                    }
                     let stats = &mut self.core.stats;
                     stats.events += 1;
                     stats.last_event = Some(StepEvent {
@@ -276,12 +292,17 @@ impl Mpc184World {
                     let (lo, hi, event) = self.locate(span, h, &marks, &c)?;
                     if lo > 0.0 {
                         // No event before the bracket: the doubling keeps its own `n`.
-                        if let Outcome::Kept(next) = self.doubling(lo, n, &c, None)? {
+                        if let Outcome::Kept(next) =
+                            self.smooth(lo, n, &c, None, history.as_mut())?
+                        {
                             n = next;
                         }
                         self.gather_acted(&mut acted);
                     }
                     self.run_part(hi - lo, 1)?;
+                    if let Some(history) = history.as_mut() {
+                        history.clear();
+                    }
                     self.gather_acted(&mut acted);
                     self.note_substep(hi - lo);
                     events += 1;
@@ -308,19 +329,44 @@ impl Mpc184World {
         // The parts add up to `dt` up to round-off: the step ends where a fixed step ends.
         self.core.progress.time = t0 + dt;
         if events > 0 || split {
-            for (slot, bits) in acted.into_iter().enumerate() {
-                if let Some(e) = self.core.joints.get_mut(slot) {
-                    for (k, flag) in e.state.at_stop.iter_mut().enumerate() {
-                        *flag |= bits & (1 << k) != 0;
-                    }
-                }
-            }
-            self.refresh_outputs();
+            self.report_acted(acted);
         }
         let stats = &mut self.core.stats;
         stats.accepted += 1;
         stats.next = n;
+        if let Some(history) = history {
+            self.core.history = history;
+        }
         Ok(())
+    }
+
+    /// After a step taken in parts: every stop that acted in a part kept (`acted`, one bit
+    /// per DOF by slot) is in the step's output, as after a step in one part.
+    fn report_acted(&mut self, acted: Vec<u8>) {
+        for (slot, bits) in acted.into_iter().enumerate() {
+            if let Some(e) = self.core.joints.get_mut(slot) {
+                for (k, flag) in e.state.at_stop.iter_mut().enumerate() {
+                    *flag |= bits & (1 << k) != 0;
+                }
+            }
+        }
+        self.refresh_outputs();
+    }
+
+    /// A segment's smooth stretch: step doubling, or with `history` the embedded estimate
+    /// (see `embedded`).
+    fn smooth(
+        &mut self,
+        span: Real,
+        n: usize,
+        c: &Control,
+        watch: Option<&[Mark]>,
+        history: Option<&mut VelocityHistory>,
+    ) -> Result<Outcome, Error> {
+        match history {
+            Some(history) => self.embedded(span, n, c, watch, history),
+            None => self.doubling(span, n, c, watch),
+        }
     }
 
     /// Step doubling over `span` from the segment's start, `n` substeps per `dt` first (see

@@ -300,7 +300,8 @@ impl DeckModel {
             // AUTOTS: the tolerance needs a substep below the load step's minimum (ANSYS stops
             // there too). The step's rows are not written; the joint named is the first.
             let tolerance = match self.world.settings().control {
-                StepControl::Adaptive { tolerance, .. } => tolerance,
+                StepControl::Adaptive { tolerance, .. }
+                | StepControl::Embedded { tolerance, .. } => tolerance,
                 StepControl::Fixed => 0.0,
             };
             return Err(Error::Diverged {
