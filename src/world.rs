@@ -57,7 +57,8 @@ pub(crate) struct Core {
     pub(crate) history: adaptive::VelocityHistory,
 }
 
-/// What [`StepControl::Adaptive`] did so far ([`Mpc184World::step_stats`]).
+/// What [`StepControl::Adaptive`] or [`StepControl::Embedded`] did so far
+/// ([`Mpc184World::step_stats`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 #[cfg_attr(
     feature = "serde-snapshot",
@@ -65,9 +66,11 @@ pub(crate) struct Core {
     serde(default)
 )]
 pub struct StepStats {
-    /// Steps taken (each with the `n` and `2 n` runs of its last try).
+    /// Steps taken (each with the `n` and `2 n` runs of its last try under step doubling, one
+    /// run under the embedded estimate).
     pub accepted: u64,
-    /// Tries taken again with twice the substeps (the error estimate was over the tolerance).
+    /// Tries taken again with more substeps (twice under step doubling; the error estimate was
+    /// over the tolerance).
     pub rejected: u64,
     /// Steps kept at `max_substeps` with the estimate still over the tolerance.
     pub unmet: u64,
@@ -77,7 +80,7 @@ pub struct StepStats {
     pub largest_substep: Real,
     /// The error estimate of the last step (m).
     pub last_estimate: Real,
-    /// Substeps integrated in all, the `n` and `2 n` runs of every try (the cost).
+    /// Substeps integrated in all, every run of every try (the cost).
     pub substeps: u64,
     /// The start time of the last step that was cut (taken again with more substeps; s), and
     /// a joint on the body whose error estimate cut it (`None`: no cut yet, or a body without
