@@ -991,6 +991,8 @@ impl Mpc184World {
         self.core.progress =
             self.checkpoint
                 .restore(&mut self.physics, &mut self.core.joints, &mut self.backend);
+        // The embedded estimate's samples may hold the end of the step undone.
+        self.core.history.clear();
         match err {
             Error::Diverged { reason, .. } => Error::Diverged {
                 time: self.time(),

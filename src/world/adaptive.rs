@@ -38,6 +38,10 @@
 //! substep's end), and the rest of the step is the next segment. A step locates at most
 //! [`MAX_EVENTS`] events (a contact chattering on a stop would otherwise cut it without end);
 //! the step doubling alone takes any after them.
+//!
+//! Under [`StepControl::Embedded`](crate::settings::StepControl::Embedded) the smooth stretches
+//! are taken by one run each, checked by an estimate from the velocities of the last segments
+//! kept (`embedded`); events are located the same way.
 
 use crate::error::{Error, JointId};
 use crate::math::rapier::dynamics::RigidBodyHandle;
@@ -291,7 +295,7 @@ impl Mpc184World {
                 Outcome::Event(h) => {
                     let (lo, hi, event) = self.locate(span, h, &marks, &c)?;
                     if lo > 0.0 {
-                        // No event before the bracket: the doubling keeps its own `n`.
+                        // No event before the bracket: the stretch keeps its own `n`.
                         if let Outcome::Kept(next) =
                             self.smooth(lo, n, &c, None, history.as_mut())?
                         {

@@ -87,8 +87,13 @@ impl VelocityHistory {
         self.samples.clear();
     }
 
-    /// The samples are enough for an estimate of the run that ends in `states`.
-    fn ready(&self, states: &[BodyState]) -> bool {
+    /// The samples are enough for an estimate of a run from `now` that ends in `states`:
+    /// [`SAMPLES`] of the same bodies, none after `now` (a world put back to an earlier time
+    /// by other means than the control's own checkpoints clears them).
+    fn ready(&mut self, now: Real, states: &[BodyState]) -> bool {
+        if self.samples.last().is_some_and(|s| s.time > now || s.time.is_nan()) {
+            self.samples.clear();
+        }
         self.samples.len() == SAMPLES && self.same_bodies(states)
     }
 
@@ -193,7 +198,7 @@ impl Mpc184World {
     ) -> Result<Outcome, Error> {
         // An island that took the first-order step (a contact) has no RATTLE error to
         // estimate: its velocities live at half steps.
-        let ready = history.ready(&self.dynamic_states())
+        let ready = history.ready(self.time(), &self.dynamic_states())
             && self.backend.diagnostics().first_order_bodies == 0;
         if !ready {
             return Ok(match self.doubling(span, (n / 2).max(1), c, watch)? {
@@ -331,7 +336,7 @@ mod tests {
             history.push(t, &[state(t, k)]);
         }
         let end = [state(times[3], k)];
-        assert!(history.ready(&end));
+        assert!(history.ready(times[2], &end));
         let [span, h, carried] = [0.05, 0.01, 2.0];
         let (estimate, body) = history.estimate(times[3], &end, &[lever], [span, h, carried]);
         let [c, d] = [2.0, 0.5];
@@ -358,9 +363,21 @@ mod tests {
         }
         let mut other = state(0.3, 1.0);
         other.0 = RigidBodyHandle::from_raw_parts(1, 0);
-        assert!(!history.ready(&[other]));
+        assert!(!history.ready(0.2, &[other]));
         history.push(0.3, &[other]);
         assert_eq!(history.samples.len(), 1);
+    }
+
+    #[test]
+    fn samples_after_the_time_now_are_dropped() {
+        // A world rolled back to 0.15 s (its last step undone) must not difference a sample
+        // from 0.2 s against a run that ends there again.
+        let mut history = VelocityHistory::default();
+        for t in [0.0, 0.1, 0.2] {
+            history.push(t, &[state(t, 1.0)]);
+        }
+        assert!(!history.ready(0.15, &[state(0.25, 1.0)]));
+        assert!(history.samples.is_empty());
     }
 
     #[test]
