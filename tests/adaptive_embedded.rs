@@ -40,10 +40,15 @@ fn settings(control: StepControl, integrator: Integrator, substeps: usize) -> Wo
     }
 }
 
+/// The A01 pendulum (see the header), released horizontally.
+fn a01(settings: WorldSettings) -> scenes::Pendulum {
+    let half = rapier3d_mpc184::math::PI / 2.0;
+    scenes::pendulum(settings, Axis::Z, 1.0, half, 1.0, 1e-4).unwrap()
+}
+
 /// The bob's positions after each of `steps` steps, and the control's stats.
 fn pendulum_run(settings: WorldSettings, steps: usize) -> (Vec<Vector>, Vec<Real>, StepStats) {
-    let half = rapier3d_mpc184::math::PI / 2.0;
-    let mut p = scenes::pendulum(settings, Axis::Z, 1.0, half, 1.0, 1e-4).unwrap();
+    let mut p = a01(settings);
     let (mut x, mut t) = (Vec::new(), Vec::new());
     for _ in 0..steps {
         p.world.step().unwrap();
@@ -64,15 +69,7 @@ fn the_pendulum_holds_its_tolerance_with_one_run_per_step() {
     };
     let (x, t, s) = pendulum_run(settings(embedded, Integrator::Rattle, 4), STEPS);
     let half = rapier3d_mpc184::math::PI / 2.0;
-    let p = scenes::pendulum(
-        settings(StepControl::Fixed, Integrator::Rattle, 1),
-        Axis::Z,
-        1.0,
-        half,
-        1.0,
-        1e-4,
-    )
-    .unwrap();
+    let p = a01(settings(StepControl::Fixed, Integrator::Rattle, 1));
     let exact = pendulum_period(p.pivot_inertia(), p.mass, scenes::G, p.length, half);
     let c = upward_crossings(&t, &x.iter().map(|v| v.x).collect::<Vec<_>>());
     let measured = (c[c.len() - 1] - c[0]) / (c.len() - 1) as Real;
@@ -123,47 +120,12 @@ const STOP_TOL: Real = 1e-9;
 
 #[test]
 fn impacts_are_located_and_the_estimate_resumes_after_them() {
-    let (mut world, id) = common::stop_pendulum(WorldSettings {
-        substeps: 2,
-        integrator: Integrator::Rattle,
-        control: StepControl::Embedded {
-            tolerance: STOP_TOL,
-            max_substeps: 1 << 12,
-            horizon: 0.0,
-        },
-        ..WorldSettings::default()
-    });
-    let (g, inertia, w0) = (9.81 as Real, 1.0 + 1e-4, 2.0 as Real);
-    let stop = (20.0f64).to_radians() as Real;
-    let omega = |th: Real| (w0 * w0 - 2.0 * g * (1.0 - th.cos()) / inertia).sqrt();
-    let t1 = common::stop_pendulum_quarter() as Real;
-    let (mut impacts, mut was, mut first) = (0, false, None);
-    while world.time() < 10.0 {
-        world.step().unwrap();
-        let at = world.output(id).unwrap().stops > 0;
-        if at && !was {
-            impacts += 1;
-        }
-        if first.is_none() {
-            first = world.step_stats().last_event;
-        }
-        was = at;
-    }
-    let first = first.expect("the first impact was located");
-    let slack = 12.0 * STOP_TOL / omega(stop);
-    let stats = world.step_stats();
-    eprintln!(
-        "first impact at {t1:.9} s, bracket ({:.9}, {:.9}]; {impacts} impacts; {stats:?}",
-        first.time - first.width,
-        first.time,
-    );
-    assert_eq!((first.joint, first.kind), (id, EventKind::Stop));
-    assert!(
-        first.time - first.width - slack < t1 && t1 <= first.time + slack,
-        "bracket misses the impact time by more than the trajectory's error"
-    );
-    assert!(impacts >= 20, "{impacts} impacts");
-    assert_eq!(stats.events, impacts as u64);
+    let control = StepControl::Embedded {
+        tolerance: STOP_TOL,
+        max_substeps: 1 << 12,
+        horizon: 0.0,
+    };
+    let (stats, _) = common::stop_pendulum_impacts_located(control, STOP_TOL);
     assert_eq!(stats.unmet, 0);
     // After each impact three segments take step doubling to refill the samples (and the
     // stretch before a bracket is a segment of its own); the rest run once.
@@ -182,16 +144,7 @@ fn the_first_order_step_has_no_embedded_estimate() {
         max_substeps: 64,
         horizon: 0.0,
     };
-    let half = rapier3d_mpc184::math::PI / 2.0;
-    let mut p = scenes::pendulum(
-        settings(control, Integrator::SymplecticEuler, 4),
-        Axis::Z,
-        1.0,
-        half,
-        1.0,
-        1e-4,
-    )
-    .unwrap();
+    let mut p = a01(settings(control, Integrator::SymplecticEuler, 4));
     let before = p.world.physics.bodies[p.bob].translation();
     let err = p.world.step().unwrap_err();
     assert!(

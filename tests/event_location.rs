@@ -89,50 +89,14 @@ const TOL: Real = 1e-9;
 
 #[test]
 fn every_impact_is_located_and_the_first_at_its_time() {
-    let (mut world, id) = common::stop_pendulum(WorldSettings {
-        substeps: 2,
-        integrator: Integrator::Rattle,
-        control: StepControl::Adaptive {
-            tolerance: TOL,
-            energy_tolerance: Real::INFINITY,
-            max_substeps: 1 << 12,
-            horizon: 0.0,
-            extrapolate: false,
-        },
-        ..WorldSettings::default()
-    });
-    let (g, inertia, w0) = (9.81 as Real, 1.0 + 1e-4, 2.0 as Real);
-    let stop = (20.0f64).to_radians() as Real;
-    let omega = |th: Real| (w0 * w0 - 2.0 * g * (1.0 - th.cos()) / inertia).sqrt();
-    let t1 = common::stop_pendulum_quarter() as Real;
-    let (mut impacts, mut was, mut first) = (0, false, None);
-    while world.time() < 10.0 {
-        world.step().unwrap();
-        let at = world.output(id).unwrap().stops > 0;
-        if at && !was {
-            impacts += 1;
-        }
-        if first.is_none() {
-            first = world.step_stats().last_event;
-        }
-        was = at;
-    }
-    let first = first.expect("the first impact was located");
-    let slack = 12.0 * TOL / omega(stop);
-    let stats = world.step_stats();
-    eprintln!(
-        "first impact at {t1:.9} s, bracket ({:.9}, {:.9}]; {impacts} impacts, {} events; {stats:?}",
-        first.time - first.width,
-        first.time,
-        stats.events
-    );
-    assert_eq!((first.joint, first.kind), (id, EventKind::Stop));
-    assert!(
-        first.time - first.width - slack < t1 && t1 <= first.time + slack,
-        "bracket misses the impact time by more than the trajectory's error"
-    );
-    assert!(impacts >= 20, "{impacts} impacts");
-    assert_eq!(stats.events, impacts as u64);
+    let control = StepControl::Adaptive {
+        tolerance: TOL,
+        energy_tolerance: Real::INFINITY,
+        max_substeps: 1 << 12,
+        horizon: 0.0,
+        extrapolate: false,
+    };
+    common::stop_pendulum_impacts_located(control, TOL);
 }
 
 #[test]

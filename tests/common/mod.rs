@@ -107,6 +107,55 @@ pub fn stop_pendulum(settings: WorldSettings) -> (Mpc184World, JointId) {
     (world, id)
 }
 
+/// The stop pendulum (`stop_pendulum`) for 10 s under `control` (RATTLE, 2 substeps to start,
+/// `tol` its position tolerance per step), checked as `tests/event_location.rs` states: the
+/// first impact located at the stop and its bracket holding the quadrature time `T1` within
+/// the trajectory's own error before it (12 steps of at most `tol` at the impact speed), every
+/// impact seen in the output one event (at least 20 of them). Returns the control's stats and
+/// the impacts seen.
+#[allow(dead_code, reason = "only the event location tests use it")]
+pub fn stop_pendulum_impacts_located(control: StepControl, tol: Real) -> (StepStats, u64) {
+    let (mut world, id) = stop_pendulum(WorldSettings {
+        substeps: 2,
+        integrator: Integrator::Rattle,
+        control,
+        ..WorldSettings::default()
+    });
+    let (g, inertia, w0) = (9.81 as Real, 1.0 + 1e-4, 2.0 as Real);
+    let stop = (20.0f64).to_radians() as Real;
+    let omega = |th: Real| (w0 * w0 - 2.0 * g * (1.0 - th.cos()) / inertia).sqrt();
+    let t1 = stop_pendulum_quarter() as Real;
+    let (mut impacts, mut was, mut first) = (0, false, None);
+    while world.time() < 10.0 {
+        world.step().unwrap();
+        let at = world.output(id).unwrap().stops > 0;
+        if at && !was {
+            impacts += 1;
+        }
+        if first.is_none() {
+            first = world.step_stats().last_event;
+        }
+        was = at;
+    }
+    let first: StepEvent = first.expect("the first impact was located");
+    let slack = 12.0 * tol / omega(stop);
+    let stats = world.step_stats();
+    eprintln!(
+        "first impact at {t1:.9} s, bracket ({:.9}, {:.9}]; {impacts} impacts, {} events; {stats:?}",
+        first.time - first.width,
+        first.time,
+        stats.events
+    );
+    assert_eq!((first.joint, first.kind), (id, EventKind::Stop));
+    assert!(
+        first.time - first.width - slack < t1 && t1 <= first.time + slack,
+        "bracket misses the impact time by more than the trajectory's error"
+    );
+    assert!(impacts >= 20, "{impacts} impacts");
+    assert_eq!(stats.events, impacts);
+    (stats, impacts)
+}
+
 /// The stop pendulum's time (s) from the bottom, where it starts at 2 rad/s, to the stop at
 /// 20 deg: `T1 = int_0^20deg dtheta / sqrt(4 - 2 (m g L / I_p) (1 - cos theta))` with `I_p` =
 /// 1.0001 kg m^2 and `m g L` = 9.81 J, by Simpson's rule on 4000 intervals (the swing's
