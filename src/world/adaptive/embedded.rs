@@ -29,16 +29,15 @@ use crate::math::Real;
 use crate::math::rapier::dynamics::RigidBodyHandle;
 use crate::settings::Integrator;
 
-use super::{BodyState, Control, CutReason, Mark, Mpc184World, Outcome, substeps_for};
+use super::{
+    BodyState, Control, CutReason, MAX_COARSENING, Mark, Mpc184World, Outcome, substeps_for,
+};
 
 /// The velocity samples the estimate needs before a run (the run's end is the fourth).
 pub(crate) const SAMPLES: usize = 3;
 
 /// A retry and the next step aim at this share of the tolerance.
 const AIM: Real = 0.8;
-
-/// Most the next step's `n` falls below a kept step's, as under step doubling.
-const MAX_COARSENING: usize = 8;
 
 /// Velocity samples of the dynamic bodies at the ends of the last segments kept (see the
 /// module docs). Part of the world's state: a snapshot carries it, so a restored world takes
