@@ -1046,7 +1046,7 @@ fn check_control(control: StepControl) -> Result<(), Error> {
         return Err(Error::InvalidSetting {
             field: "control.max_substeps",
             value: max_substeps as Real,
-            reason: "step doubling needs 2 to 2^20 substeps",
+            reason: "an adaptive control (step doubling or the embedded estimate) takes 2 to 2^20 substeps per step",
         });
     }
     Ok(())
