@@ -11,7 +11,7 @@
 //!   velocity `[e^I]^T (w_J - w_I)` (rad/s, frame I; for a single free rotation axis it is the
 //!   rate of that angle).
 
-use crate::math::{Matrix, PI, Real, Vector};
+use crate::math::{Matrix, PI, Real, Vector, asin, atan2};
 
 /// Bryant (Cardan X-Y'-Z'') angles `[psi, phi, theta]` of a relative rotation matrix
 /// `r = [e^I]^T [e^J]` (entries `r[i][j] = e_i^I . e_j^J`), each in radians, wrapped to
@@ -19,9 +19,10 @@ use crate::math::{Matrix, PI, Real, Vector};
 pub fn bryant_angles(r: &Matrix) -> [Real; 3] {
     // glam matrices are column-major: r.col(j)[i] = r[i][j].
     let e = |i: usize, j: usize| r.col(j)[i];
-    let psi = -(e(1, 2)).atan2(e(2, 2));
-    let phi = e(0, 2).clamp(-1.0, 1.0).asin();
-    let theta = -(e(0, 1)).atan2(e(0, 0));
+    // A joint's held angles are tiny: their series (`math::atan2`, `math::asin`).
+    let psi = -atan2(e(1, 2), e(2, 2));
+    let phi = asin(e(0, 2));
+    let theta = -atan2(e(0, 1), e(0, 0));
     [psi, phi, theta]
 }
 

@@ -104,8 +104,8 @@ pub fn dof_measure(f: &FramePair, dof: Dof, reference: Real) -> Real {
     let g = |i: usize| f.r2.col(i);
     match dof {
         Dof::Ux | Dof::Uy | Dof::Uz => e(dof.axis()).dot(f.p2 - f.p1),
-        Dof::RotX => unwrap(-(g(2).dot(e(1))).atan2(g(2).dot(e(2)))),
-        Dof::RotY => g(2).dot(e(0)).clamp(-1.0, 1.0).asin(),
+        Dof::RotX => unwrap(-crate::math::atan2(g(2).dot(e(1)), g(2).dot(e(2)))),
+        Dof::RotY => crate::math::asin(g(2).dot(e(0))),
         Dof::RotZ => screw_angle(f, reference),
     }
 }
@@ -114,7 +114,7 @@ pub fn dof_measure(f: &FramePair, dof: Dof, reference: Real) -> Real {
 /// Bryant angle theta), unwrapped to lie within pi of `reference` (rad).
 pub fn screw_angle(f: &FramePair, reference: Real) -> Real {
     let e1 = f.r1.col(0);
-    let wrapped = -(e1.dot(f.r2.col(1))).atan2(e1.dot(f.r2.col(0)));
+    let wrapped = -crate::math::atan2(e1.dot(f.r2.col(1)), e1.dot(f.r2.col(0)));
     let two_pi = 2.0 * crate::math::PI;
     let mut d = wrapped - reference;
     d -= two_pi * (d / two_pi).round();
