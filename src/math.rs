@@ -57,8 +57,10 @@ pub(crate) fn turn(dth: Vector) -> Rotation {
 /// `y.atan2(x)`, from the series of `atan(y / x)` where `x > 0` and `|y| <= 1e-3 x` (the terms
 /// left out are below `(y / x)^6 / 7 <= 1.5e-19` of the result, under an ulp in `f64`), and
 /// `Real::atan2` elsewhere (NaN and the infinities included). The angles a joint holds are of
-/// that size (`1e-10` rad or less), and each step measures them for every joint's output:
-/// `atan2` was 3.2 % of the 400-arm mixed scene's step on the `rapier-impulse` backend.
+/// that size (`1e-10` rad or less), and each step measures them for every joint's output
+/// (`atan2` took 3.2 % of `perf`'s samples of the 400-arm mixed scene on `rapier-impulse`).
+/// Measured: -0.5 to -0.8 % instructions per step there, -0.1 to -0.3 % on the Lagrange
+/// backend; timed, the same within the noise.
 #[inline]
 pub(crate) fn atan2(y: Real, x: Real) -> Real {
     if x > 0.0 && y.abs() <= 1e-3 * x {
@@ -86,8 +88,8 @@ mod tests {
 
     /// The series agree with `Real::atan2` and `Real::asin` to 2 ulps over their whole range
     /// (the truncation is under an ulp, see [`atan2`]; the rest is the rounding of a few
-    /// products: measured 1.0 ulp at most in `f64`, 0.9 in `f32`), and hand everything else (large angles, the other half-planes, zero, NaN,
-    /// the infinities) to them unchanged.
+    /// products: measured 1.0 ulp at most in `f64`, 0.9 in `f32`), and hand everything else
+    /// (large angles, the other half-planes, zero, NaN, the infinities) to them unchanged.
     #[test]
     fn small_angle_series_match_the_library() {
         let ulps =
