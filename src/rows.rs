@@ -100,8 +100,8 @@ pub fn dof_measure(f: &FramePair, dof: Dof, reference: Real) -> Real {
         d -= two_pi * (d / two_pi).round();
         reference + d
     };
-    let e = |i: usize| f.r1.col(i);
-    let g = |i: usize| f.r2.col(i);
+    let e = |i: usize| f.axis1(i);
+    let g = |i: usize| f.axis2(i);
     match dof {
         Dof::Ux | Dof::Uy | Dof::Uz => e(dof.axis()).dot(f.p2 - f.p1),
         Dof::RotX => unwrap(-crate::math::atan2(g(2).dot(e(1)), g(2).dot(e(2)))),
@@ -113,8 +113,8 @@ pub fn dof_measure(f: &FramePair, dof: Dof, reference: Real) -> Real {
 /// The relative rotation about e3 of frame 2 from frame 1 (`-atan2(e1 . f2, e1 . f1)`, the
 /// Bryant angle theta), unwrapped to lie within pi of `reference` (rad).
 pub fn screw_angle(f: &FramePair, reference: Real) -> Real {
-    let e1 = f.r1.col(0);
-    let wrapped = -crate::math::atan2(e1.dot(f.r2.col(1)), e1.dot(f.r2.col(0)));
+    let e1 = f.axis1(0);
+    let wrapped = -crate::math::atan2(e1.dot(f.axis2(1)), e1.dot(f.axis2(0)));
     let two_pi = 2.0 * crate::math::PI;
     let mut d = wrapped - reference;
     d -= two_pi * (d / two_pi).round();
@@ -215,6 +215,48 @@ impl FramePair {
             c2: body2.1,
         }
     }
+
+    /// The vectors the rows of this frame pair share.
+    #[inline(always)]
+    pub(crate) fn arms(&self) -> Arms {
+        Arms {
+            d: self.p2 - self.p1,
+            arm1: self.p2 - self.c1,
+            arm2: self.p2 - self.c2,
+        }
+    }
+
+    /// Axis `i` of frame 1 (`i < 3`, else a panic, as `Matrix::col`).
+    #[inline(always)]
+    pub fn axis1(&self, i: usize) -> Vector {
+        column(&self.r1, i)
+    }
+
+    /// Axis `i` of frame 2 (`i < 3`, else a panic).
+    #[inline(always)]
+    pub fn axis2(&self, i: usize) -> Vector {
+        column(&self.r2, i)
+    }
+}
+
+/// Column `i` of `m`, read from the matrix's stored array: `Matrix::col` matches on `i`, a
+/// branch per call in the rows' evaluation (0.8 % of the 100-link chain's instructions).
+#[inline(always)]
+fn column(m: &Matrix, i: usize) -> Vector {
+    let a: &[Real; 9] = m.as_ref();
+    Vector::from_slice(&a[3 * i..3 * i + 3])
+}
+
+/// What the rows of one joint share at one configuration ([`FramePair::arms`]): computed
+/// once per joint instead of once per row.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Arms {
+    /// The frames' separation `p2 - p1` (m).
+    pub(crate) d: Vector,
+    /// Frame 2's origin from body 1's centre of mass, `p2 - c1` (m).
+    pub(crate) arm1: Vector,
+    /// Frame 2's origin from body 2's centre of mass, `p2 - c2` (m).
+    pub(crate) arm2: Vector,
 }
 
 /// A row evaluated at one configuration: value and Jacobian blocks (linear, angular) per body.
@@ -244,8 +286,8 @@ impl RowKind {
     /// Jacobian's cross products).
     pub fn value(self, f: &FramePair) -> Real {
         match self {
-            RowKind::Linear { axis } => f.r1.col(axis).dot(f.p2 - f.p1),
-            RowKind::Angular { a, b, target } => f.r1.col(a).dot(f.r2.col(b)) - target,
+            RowKind::Linear { axis } => linear_value(f, f.p2 - f.p1, axis),
+            RowKind::Angular { a, b, target } => angular_value(f, a, b, target),
             RowKind::Distance { .. } | RowKind::Drive { .. } | RowKind::Screw { .. } => {
                 self.eval(f).value
             }
@@ -255,6 +297,7 @@ impl RowKind {
 
     /// Value and Jacobian at the configuration `f`.
     pub fn eval(self, f: &FramePair) -> RowEval {
+        let arms = f.arms();
         match self {
             RowKind::Spin { side, axis } => {
                 let zero = [Vector::ZERO, Vector::ZERO];
@@ -272,21 +315,13 @@ impl RowKind {
                     }
                 }
             }
-            RowKind::Linear { axis } => {
-                let e = f.r1.col(axis);
-                let d = f.p2 - f.p1;
-                RowEval {
-                    value: e.dot(d),
-                    j1: [-e, -(f.p2 - f.c1).cross(e)],
-                    j2: [e, (f.p2 - f.c2).cross(e)],
-                }
-            }
+            RowKind::Linear { axis } => linear_row(f, &arms, axis),
             RowKind::Distance { length } => {
                 let d = f.p2 - f.p1;
                 let len = d.length();
                 // At zero length the direction is undefined: take e1 of frame 1 (a link is
                 // built with distinct nodes, so this only guards against a collapse).
-                let n = if len > 0.0 { d / len } else { f.r1.col(0) };
+                let n = if len > 0.0 { d / len } else { f.axis1(0) };
                 RowEval {
                     value: len - length,
                     j1: [-n, -(f.p1 - f.c1).cross(n)],
@@ -298,12 +333,11 @@ impl RowKind {
                 reference,
                 theta0,
             } => {
-                let e = f.r1.col(2);
-                let d = f.p2 - f.p1;
+                let e = f.axis1(2);
                 RowEval {
-                    value: e.dot(d) - pitch * (screw_angle(f, reference) - theta0),
-                    j1: [-e, -(f.p2 - f.c1).cross(e) + e * pitch],
-                    j2: [e, (f.p2 - f.c2).cross(e) - e * pitch],
+                    value: e.dot(arms.d) - pitch * (screw_angle(f, reference) - theta0),
+                    j1: [-e, -arms.arm1.cross(e) + e * pitch],
+                    j2: [e, arms.arm2.cross(e) - e * pitch],
                 }
             }
             RowKind::Drive {
@@ -312,7 +346,7 @@ impl RowKind {
                 initial,
                 reference,
             } => {
-                let e = f.r1.col(dof.axis());
+                let e = f.axis1(dof.axis());
                 let value = dof_measure(f, dof, reference) - initial - target;
                 if dof.is_rotation() {
                     RowEval {
@@ -323,21 +357,12 @@ impl RowKind {
                 } else {
                     RowEval {
                         value,
-                        j1: [-e, -(f.p2 - f.c1).cross(e)],
-                        j2: [e, (f.p2 - f.c2).cross(e)],
+                        j1: [-e, -arms.arm1.cross(e)],
+                        j2: [e, arms.arm2.cross(e)],
                     }
                 }
             }
-            RowKind::Angular { a, b, target } => {
-                let u = f.r1.col(a);
-                let w = f.r2.col(b);
-                let n = u.cross(w);
-                RowEval {
-                    value: u.dot(w) - target,
-                    j1: [Vector::ZERO, n],
-                    j2: [Vector::ZERO, -n],
-                }
-            }
+            RowKind::Angular { a, b, target } => angular_row(f, a, b, target),
         }
     }
 
@@ -350,12 +375,12 @@ impl RowKind {
     /// one-sided row.
     pub fn node_wrench(self, f: &FramePair) -> Option<NodeWrench> {
         match self {
-            RowKind::Linear { axis } => Some(NodeWrench::Force(f.r1.col(axis))),
+            RowKind::Linear { axis } => Some(NodeWrench::Force(f.axis1(axis))),
             RowKind::Angular { a, b, .. } => {
-                Some(NodeWrench::Moment(-f.r1.col(a).cross(f.r2.col(b))))
+                Some(NodeWrench::Moment(-f.axis1(a).cross(f.axis2(b))))
             }
             RowKind::Drive { dof, .. } => {
-                let e = f.r1.col(dof.axis());
+                let e = f.axis1(dof.axis());
                 Some(if dof.is_rotation() {
                     NodeWrench::Moment(e)
                 } else {
@@ -368,10 +393,53 @@ impl RowKind {
                 Some(NodeWrench::Force(if len > 0.0 {
                     d / len
                 } else {
-                    f.r1.col(0)
+                    f.axis1(0)
                 }))
             }
             RowKind::Screw { .. } | RowKind::Spin { .. } => None,
         }
+    }
+}
+
+/// The value and Jacobian of [`RowKind::Linear`] along axis `axis` of frame 1, `e . (p2 -
+/// p1)`: body 1 `(-e, -(p2 - c1) x e)`, body 2 `(e, (p2 - c2) x e)`. Inlined into the
+/// backends' passes over the rows, where the result goes straight to the Jacobian arena
+/// (called once per row through [`RowKind::eval`], with the lever arms computed per row and
+/// the result returned through memory, the rows' evaluation took 2.4 % more of the
+/// 100-link chain's instructions, 3.0 % more of the mixed scene's).
+#[inline(always)]
+pub(crate) fn linear_row(f: &FramePair, arms: &Arms, axis: usize) -> RowEval {
+    let e = f.axis1(axis);
+    RowEval {
+        value: linear_value(f, arms.d, axis),
+        j1: [-e, -arms.arm1.cross(e)],
+        j2: [e, arms.arm2.cross(e)],
+    }
+}
+
+/// The value of [`RowKind::Linear`] along axis `axis` of frame 1 with the frames' separation
+/// `d = p2 - p1` given (shared by a joint's rows). Inlined as [`linear_row`].
+#[inline(always)]
+pub(crate) fn linear_value(f: &FramePair, d: Vector, axis: usize) -> Real {
+    f.axis1(axis).dot(d)
+}
+
+/// The value of [`RowKind::Angular`], `e_a . f_b - target`. Inlined as [`linear_row`].
+#[inline(always)]
+pub(crate) fn angular_value(f: &FramePair, a: usize, b: usize, target: Real) -> Real {
+    f.axis1(a).dot(f.axis2(b)) - target
+}
+
+/// The value and Jacobian of [`RowKind::Angular`], `e_a . f_b - target`: body 1 `(0, n)`,
+/// body 2 `(0, -n)` with `n = e_a x f_b`. Inlined as [`linear_row`].
+#[inline(always)]
+pub(crate) fn angular_row(f: &FramePair, a: usize, b: usize, target: Real) -> RowEval {
+    let u = f.axis1(a);
+    let w = f.axis2(b);
+    let n = u.cross(w);
+    RowEval {
+        value: angular_value(f, a, b, target),
+        j1: [Vector::ZERO, n],
+        j2: [Vector::ZERO, -n],
     }
 }

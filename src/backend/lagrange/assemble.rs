@@ -8,7 +8,9 @@ use crate::joint::ConstraintMethod;
 use crate::joint_set::JointSet;
 use crate::math::rapier::dynamics::{RigidBodyHandle, RigidBodySet};
 use crate::math::{Matrix, Pose, Real, Vector};
-use crate::rows::{FramePair, RowKind};
+use crate::rows::{
+    FramePair, RowEval, RowKind, angular_row, angular_value, linear_row, linear_value,
+};
 use crate::solver::kkt::{FactorReport, JAC_ROW_STRIDE};
 
 /// What an evaluation of the rows computes.
@@ -101,6 +103,14 @@ impl Island {
 
     /// Evaluates every row at the bodies' current state (`st`): the values, and with
     /// [`Eval::Geometry`] the Jacobian arena too.
+    ///
+    /// The translation and rotation rows (all but a few joints' rows) are evaluated inline
+    /// ([`linear_row`], [`angular_row`]) with the joint's shared vectors computed once
+    /// ([`FramePair::arms`]) and stored straight into the arena; the others through
+    /// [`RowKind::eval`]. Measured against one `RowKind::eval` call per row (callgrind,
+    /// 1/60 s x 4, with the frame axes read by index, [`FramePair::axis1`]): -2.8 %
+    /// instructions per step on the 100-link chain, -3.3 % on the mixed scene of 100 arms,
+    /// the same results to the bit.
     pub(super) fn eval_rows(&mut self, joints: &JointSet, bodies: &RigidBodySet, what: Eval) {
         let Some(kkt) = self.kkt.as_ref() else { return };
         // Local slices: the stores into them would otherwise make every access reload the
@@ -119,21 +129,28 @@ impl Island {
             let (r0, n) = (kkt.row_offset(k), e.state.rows.len());
             let values = &mut value[r0..r0 + n];
             if what == Eval::Values {
+                let d = f.p2 - f.p1;
                 for (v, row) in values.iter_mut().zip(&e.state.rows) {
-                    *v = row.value(&f);
+                    *v = match *row {
+                        RowKind::Linear { axis } => linear_value(&f, d, axis),
+                        RowKind::Angular { a, b, target } => angular_value(&f, a, b, target),
+                        _ => row.value(&f),
+                    };
                 }
                 continue;
             }
-            let outs = jac[JAC_ROW_STRIDE * r0..JAC_ROW_STRIDE * (r0 + n)]
-                .chunks_exact_mut(JAC_ROW_STRIDE);
+            let arms = f.arms();
+            let (outs, _) = jac[JAC_ROW_STRIDE * r0..JAC_ROW_STRIDE * (r0 + n)]
+                .as_chunks_mut::<JAC_ROW_STRIDE>();
             for ((v, row), out) in values.iter_mut().zip(&e.state.rows).zip(outs) {
-                let ev = row.eval(&f);
-                *v = ev.value;
-                for a in 0..3 {
-                    out[a] = ev.j1[0][a];
-                    out[3 + a] = ev.j1[1][a];
-                    out[6 + a] = ev.j2[0][a];
-                    out[9 + a] = ev.j2[1][a];
+                // Each arm stores its own result: merged into one `RowEval` first, the three
+                // went through a stack slot (0.9 % more instructions on the 100-link chain).
+                match *row {
+                    RowKind::Linear { axis } => put_row(out, v, linear_row(&f, &arms, axis)),
+                    RowKind::Angular { a, b, target } => {
+                        put_row(out, v, angular_row(&f, a, b, target));
+                    }
+                    _ => put_row(out, v, row.eval(&f)),
                 }
             }
         }
@@ -407,5 +424,18 @@ impl Island {
             }
         }
         result
+    }
+}
+
+/// Stores one row's evaluation: its value into `value`, its Jacobian blocks (body 1 linear,
+/// angular; body 2 linear, angular) into its slot `out` of the Jacobian arena.
+#[inline(always)]
+fn put_row(out: &mut [Real; JAC_ROW_STRIDE], value: &mut Real, ev: RowEval) {
+    *value = ev.value;
+    for (dst, b) in out
+        .chunks_exact_mut(3)
+        .zip([ev.j1[0], ev.j1[1], ev.j2[0], ev.j2[1]])
+    {
+        dst.copy_from_slice(&[b.x, b.y, b.z]);
     }
 }
