@@ -20,6 +20,204 @@ pub use rapier::math::{Matrix, Pose, Real, Rotation, Vector};
 /// The constant pi in [`Real`] precision.
 pub const PI: Real = core::f64::consts::PI as Real;
 
+/// Two bodies' or two frames' quaternion and vector arithmetic at once, one per lane of a SIMD
+/// register. Each lane runs glam's operations in glam's order (`DQuat::mul_quat`,
+/// `DQuat::mul_vec3`, `DQuat::normalize`, `DMat3::from_quat`, `DVec3::dot` and `cross`), with
+/// no fused multiply-add, so in `f64` the results are glam's to the bit. The compiler's own
+/// vectorisation of the scalar code pairs the components of one quaternion, with shuffles
+/// between them: `rows::FramePair::at` took 302 instructions that way and 201 in lanes.
+pub(crate) mod pair {
+    use super::{Matrix, Real, Rotation, Vector};
+
+    /// The lane type: two lanes of `f64`, or the first two of four of `f32`.
+    #[cfg(not(feature = "f32"))]
+    pub(crate) type L = wide::f64x2;
+    /// The lane type: two lanes of `f64`, or the first two of four of `f32`.
+    #[cfg(feature = "f32")]
+    pub(crate) type L = wide::f32x4;
+
+    /// `a` in lane 0, `b` in lane 1.
+    #[inline(always)]
+    pub(crate) fn lanes(a: Real, b: Real) -> L {
+        #[cfg(not(feature = "f32"))]
+        return L::new([a, b]);
+        #[cfg(feature = "f32")]
+        return L::new([a, b, 0.0, 0.0]);
+    }
+
+    /// Lanes 0 and 1.
+    #[inline(always)]
+    pub(crate) fn split(v: L) -> [Real; 2] {
+        let a = v.to_array();
+        [a[0], a[1]]
+    }
+
+    /// Two vectors.
+    #[derive(Clone, Copy)]
+    pub(crate) struct V {
+        pub(crate) x: L,
+        pub(crate) y: L,
+        pub(crate) z: L,
+    }
+
+    impl V {
+        #[inline(always)]
+        pub(crate) fn new(a: Vector, b: Vector) -> V {
+            V {
+                x: lanes(a.x, b.x),
+                y: lanes(a.y, b.y),
+                z: lanes(a.z, b.z),
+            }
+        }
+
+        #[inline(always)]
+        pub(crate) fn split(self) -> [Vector; 2] {
+            let ([x0, x1], [y0, y1], [z0, z1]) = (split(self.x), split(self.y), split(self.z));
+            [Vector::new(x0, y0, z0), Vector::new(x1, y1, z1)]
+        }
+
+        #[inline(always)]
+        pub(crate) fn add(self, o: V) -> V {
+            V {
+                x: self.x + o.x,
+                y: self.y + o.y,
+                z: self.z + o.z,
+            }
+        }
+
+        #[inline(always)]
+        pub(crate) fn sub(self, o: V) -> V {
+            V {
+                x: self.x - o.x,
+                y: self.y - o.y,
+                z: self.z - o.z,
+            }
+        }
+
+        /// Each component times `k`.
+        #[inline(always)]
+        pub(crate) fn scale(self, k: L) -> V {
+            V {
+                x: self.x * k,
+                y: self.y * k,
+                z: self.z * k,
+            }
+        }
+
+        #[inline(always)]
+        pub(crate) fn dot(self, o: V) -> L {
+            self.x * o.x + self.y * o.y + self.z * o.z
+        }
+
+        #[inline(always)]
+        pub(crate) fn cross(self, o: V) -> V {
+            V {
+                x: self.y * o.z - o.y * self.z,
+                y: self.z * o.x - o.z * self.x,
+                z: self.x * o.y - o.x * self.y,
+            }
+        }
+    }
+
+    /// Two quaternions.
+    #[derive(Clone, Copy)]
+    pub(crate) struct Q {
+        pub(crate) x: L,
+        pub(crate) y: L,
+        pub(crate) z: L,
+        pub(crate) w: L,
+    }
+
+    impl Q {
+        #[inline(always)]
+        pub(crate) fn new(a: Rotation, b: Rotation) -> Q {
+            Q {
+                x: lanes(a.x, b.x),
+                y: lanes(a.y, b.y),
+                z: lanes(a.z, b.z),
+                w: lanes(a.w, b.w),
+            }
+        }
+
+        #[inline(always)]
+        pub(crate) fn split(self) -> [Rotation; 2] {
+            let [x0, x1] = split(self.x);
+            let [y0, y1] = split(self.y);
+            let [z0, z1] = split(self.z);
+            let [w0, w1] = split(self.w);
+            [
+                Rotation::from_xyzw(x0, y0, z0, w0),
+                Rotation::from_xyzw(x1, y1, z1, w1),
+            ]
+        }
+
+        /// `self * o` (`DQuat::mul_quat`).
+        #[inline(always)]
+        pub(crate) fn mul(self, o: Q) -> Q {
+            let (x0, y0, z0, w0) = (self.x, self.y, self.z, self.w);
+            let (x1, y1, z1, w1) = (o.x, o.y, o.z, o.w);
+            Q {
+                x: w0 * x1 + x0 * w1 + y0 * z1 - z0 * y1,
+                y: w0 * y1 - x0 * z1 + y0 * w1 + z0 * x1,
+                z: w0 * z1 + x0 * y1 - y0 * x1 + z0 * w1,
+                w: w0 * w1 - x0 * x1 - y0 * y1 - z0 * z1,
+            }
+        }
+
+        /// `self * v` (`DQuat::mul_vec3`).
+        #[inline(always)]
+        pub(crate) fn rotate(self, v: V) -> V {
+            let two = L::splat(2.0);
+            let b = V {
+                x: self.x,
+                y: self.y,
+                z: self.z,
+            };
+            let b2 = b.dot(b);
+            v.scale(self.w * self.w - b2)
+                .add(b.scale(v.dot(b) * two))
+                .add(b.cross(v).scale(self.w * two))
+        }
+
+        /// `DQuat::normalize`: each component times `1 / sqrt(x x + y y + z z + w w)`.
+        #[inline(always)]
+        pub(crate) fn normalize(self) -> Q {
+            let len =
+                (self.x * self.x + self.y * self.y + self.z * self.z + self.w * self.w).sqrt();
+            let r = L::splat(1.0) / len;
+            Q {
+                x: self.x * r,
+                y: self.y * r,
+                z: self.z * r,
+                w: self.w * r,
+            }
+        }
+
+        /// The two rotation matrices (`DMat3::from_quat`).
+        #[inline(always)]
+        pub(crate) fn axes(self) -> [Matrix; 2] {
+            let one = L::splat(1.0);
+            let (x2, y2, z2) = (self.x + self.x, self.y + self.y, self.z + self.z);
+            let (xx, xy, xz) = (self.x * x2, self.x * y2, self.x * z2);
+            let (yy, yz, zz) = (self.y * y2, self.y * z2, self.z * z2);
+            let (wx, wy, wz) = (self.w * x2, self.w * y2, self.w * z2);
+            let cols = [
+                split(one - (yy + zz)),
+                split(xy + wz),
+                split(xz - wy),
+                split(xy - wz),
+                split(one - (xx + zz)),
+                split(yz + wx),
+                split(xz + wy),
+                split(yz - wx),
+                split(one - (xx + yy)),
+            ];
+            let m = |k: usize| Matrix::from_cols_array(&core::array::from_fn(|e| cols[e][k]));
+            [m(0), m(1)]
+        }
+    }
+}
+
 /// The rotation vector (axis times angle, rad, world frame) of the turn from `from` to `to`,
 /// `to = exp(turn) from`: the shorter of the two arcs (a unit quaternion and its negative are
 /// the same rotation), and exact for small turns (`Rotation::to_scaled_axis` returns zero
@@ -36,6 +234,10 @@ pub fn turn_between(from: Rotation, to: Rotation) -> Vector {
     }
 }
 
+/// The squared half angle (rad^2) from which [`turn`] calls `Rotation::from_scaled_axis`
+/// instead of its series: a turn of 0.01 rad.
+pub(crate) const TURN_SERIES_LIMIT: Real = 2.5e-5;
+
 /// The rotation by the rotation vector `dth` (axis times angle, rad): `Rotation::from_scaled_axis`,
 /// with the half angle's sine and cosine from their series below 0.01 rad (the terms left out
 /// are below 1e-20 of the result), which skips the square root, the division and the `sin_cos`
@@ -45,7 +247,7 @@ pub fn turn_between(from: Rotation, to: Rotation) -> Vector {
 pub(crate) fn turn(dth: Vector) -> Rotation {
     // x = angle / 2; sin(x) / (2 x) and cos(x) in powers of x^2.
     let x2 = 0.25 * dth.length_squared();
-    if x2 >= 2.5e-5 {
+    if x2 >= TURN_SERIES_LIMIT {
         return Rotation::from_scaled_axis(dth);
     }
     let s = 0.5 * (1.0 - x2 / 6.0 * (1.0 - x2 / 20.0 * (1.0 - x2 / 42.0)));

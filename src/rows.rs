@@ -198,110 +198,34 @@ pub struct FramePair {
 
 impl FramePair {
     /// The frame pair of a joint whose frames are `frames` (in each body's local coordinates)
-    /// on bodies at `body1` and `body2` (pose, centre of mass).
-    #[cfg(feature = "f32")]
-    pub(crate) fn at(
-        frames: &[crate::math::Pose; 2],
-        body1: (crate::math::Pose, Vector),
-        body2: (crate::math::Pose, Vector),
-    ) -> FramePair {
-        let f1 = body1.0 * frames[0];
-        let f2 = body2.0 * frames[1];
-        FramePair {
-            p1: f1.translation,
-            r1: Matrix::from_quat(f1.rotation),
-            c1: body1.1,
-            p2: f2.translation,
-            r2: Matrix::from_quat(f2.rotation),
-            c2: body2.1,
-        }
-    }
-
-    /// The frame pair of a joint whose frames are `frames` (in each body's local coordinates)
-    /// on bodies at `body1` and `body2` (pose, centre of mass).
+    /// on bodies at `body1` and `body2` (pose, centre of mass): `body * frame` for each side.
     ///
-    /// The two frames take the same operations, so they run in the two lanes of one SSE2
-    /// register (`wide::f64x2`: lane 0 frame 1, lane 1 frame 2), each lane in the order of
-    /// glam's `DPose3 * DPose3` (`DQuat::mul_quat`, `DQuat::mul_vec3`) and `DMat3::from_quat`,
-    /// with no fused multiply-add: the same results to the bit, in 201 instructions a call
-    /// where the compiler's own vectorisation of the scalar code took 302 (callgrind, 1/60 s x
-    /// 4: -2.5 % instructions per step on the 100-link chain, -2.7 % on the mixed scene of
-    /// 100 arms).
-    #[cfg(not(feature = "f32"))]
+    /// The two sides run in the two lanes of one register ([`crate::math::pair`]; in `f64`
+    /// the same results to the bit as glam's `DPose3 * DPose3` and `DMat3::from_quat`), in 201
+    /// instructions a call where the compiler's own vectorisation of the scalar code took 302
+    /// (callgrind, 1/60 s x 4: -2.5 % instructions per step on the 100-link chain, -2.7 % on
+    /// the mixed scene of 100 arms).
     pub(crate) fn at(
         frames: &[crate::math::Pose; 2],
         body1: (crate::math::Pose, Vector),
         body2: (crate::math::Pose, Vector),
     ) -> FramePair {
-        use wide::f64x2;
-        let pair = |a: Real, b: Real| f64x2::new([a, b]);
-        let (b1, b2, l1, l2) = (body1.0, body2.0, frames[0], frames[1]);
-        // The bodies' rotations and translations, the frames' local ones.
-        let (x0, y0) = (
-            pair(b1.rotation.x, b2.rotation.x),
-            pair(b1.rotation.y, b2.rotation.y),
-        );
-        let (z0, w0) = (
-            pair(b1.rotation.z, b2.rotation.z),
-            pair(b1.rotation.w, b2.rotation.w),
-        );
-        let (x1, y1) = (
-            pair(l1.rotation.x, l2.rotation.x),
-            pair(l1.rotation.y, l2.rotation.y),
-        );
-        let (z1, w1) = (
-            pair(l1.rotation.z, l2.rotation.z),
-            pair(l1.rotation.w, l2.rotation.w),
-        );
-        let (tx, ty, tz) = (
-            pair(l1.translation.x, l2.translation.x),
-            pair(l1.translation.y, l2.translation.y),
-            pair(l1.translation.z, l2.translation.z),
-        );
-        // `DQuat::mul_quat`: the frame's rotation.
-        let qx = w0 * x1 + x0 * w1 + y0 * z1 - z0 * y1;
-        let qy = w0 * y1 - x0 * z1 + y0 * w1 + z0 * x1;
-        let qz = w0 * z1 + x0 * y1 - y0 * x1 + z0 * w1;
-        let qw = w0 * w1 - x0 * x1 - y0 * y1 - z0 * z1;
-        // `DQuat::mul_vec3` of the local translation, plus the body's: the frame's origin.
-        let two = f64x2::splat(2.0);
-        let bb = x0 * x0 + y0 * y0 + z0 * z0;
-        let s = w0 * w0 - bb;
-        let d = (tx * x0 + ty * y0 + tz * z0) * two;
-        let w2 = w0 * two;
-        let cx = y0 * tz - ty * z0;
-        let cy = z0 * tx - tz * x0;
-        let cz = x0 * ty - tx * y0;
-        let px = pair(b1.translation.x, b2.translation.x) + (tx * s + x0 * d + cx * w2);
-        let py = pair(b1.translation.y, b2.translation.y) + (ty * s + y0 * d + cy * w2);
-        let pz = pair(b1.translation.z, b2.translation.z) + (tz * s + z0 * d + cz * w2);
-        // `DMat3::from_quat`: the frame's axes.
-        let one = f64x2::splat(1.0);
-        let (x2, y2, z2) = (qx + qx, qy + qy, qz + qz);
-        let (xx, xy, xz) = (qx * x2, qx * y2, qx * z2);
-        let (yy, yz, zz) = (qy * y2, qy * z2, qz * z2);
-        let (wx, wy, wz) = (qw * x2, qw * y2, qw * z2);
-        let cols = [
-            (one - (yy + zz)).to_array(),
-            (xy + wz).to_array(),
-            (xz - wy).to_array(),
-            (xy - wz).to_array(),
-            (one - (xx + zz)).to_array(),
-            (yz + wx).to_array(),
-            (xz + wy).to_array(),
-            (yz - wx).to_array(),
-            (one - (xx + yy)).to_array(),
-        ];
-        let axes = |k: usize| Matrix::from_cols_array(&std::array::from_fn(|e| cols[e][k]));
-        let [p1x, p2x] = px.to_array();
-        let [p1y, p2y] = py.to_array();
-        let [p1z, p2z] = pz.to_array();
+        use crate::math::pair::{Q, V};
+        let (b1, b2) = (body1.0, body2.0);
+        let body = Q::new(b1.rotation, b2.rotation);
+        let local = V::new(frames[0].translation, frames[1].translation);
+        let rotation = body.mul(Q::new(frames[0].rotation, frames[1].rotation));
+        // `DPose3 * DPose3`: the translation is the body's plus its rotation of the frame's.
+        let [p1, p2] = V::new(b1.translation, b2.translation)
+            .add(body.rotate(local))
+            .split();
+        let [r1, r2] = rotation.axes();
         FramePair {
-            p1: Vector::new(p1x, p1y, p1z),
-            r1: axes(0),
+            p1,
+            r1,
             c1: body1.1,
-            p2: Vector::new(p2x, p2y, p2z),
-            r2: axes(1),
+            p2,
+            r2,
             c2: body2.1,
         }
     }

@@ -1046,6 +1046,52 @@ fn displace(s: &mut BodyState, dx: Vector, dth: Vector) {
     s.pose.translation = s.com - rot * s.local_com;
 }
 
+/// [`displace`] for every body by `d[i] = [dx; dth]`, two bodies at a time in lanes
+/// ([`crate::math::pair`]; the same results to the bit) where both turns are within
+/// [`crate::math::turn`]'s series, one at a time otherwise.
+fn displace_all(st: &mut [BodyState], d: &[[Real; 6]]) {
+    use crate::math::pair::{L, Q, V, split};
+    let vec = |x: &[Real; 6], k: usize| Vector::new(x[k], x[k + 1], x[k + 2]);
+    let mut pairs = st.chunks_exact_mut(2);
+    let mut ds = d.chunks_exact(2);
+    for (s, x) in (&mut pairs).zip(&mut ds) {
+        let [a, b] = s else { continue };
+        let dth = V::new(vec(&x[0], 3), vec(&x[1], 3));
+        // `turn`'s series, as there.
+        let x2 = L::splat(0.25) * dth.dot(dth);
+        let [xa, xb] = split(x2);
+        if xa >= crate::math::TURN_SERIES_LIMIT || xb >= crate::math::TURN_SERIES_LIMIT {
+            displace(a, vec(&x[0], 0), vec(&x[0], 3));
+            displace(b, vec(&x[1], 0), vec(&x[1], 3));
+            continue;
+        }
+        let (one, half) = (L::splat(1.0), L::splat(0.5));
+        let sn = half
+            * (one
+                - x2 / L::splat(6.0) * (one - x2 / L::splat(20.0) * (one - x2 / L::splat(42.0))));
+        let c =
+            one - x2 / L::splat(2.0) * (one - x2 / L::splat(12.0) * (one - x2 / L::splat(30.0)));
+        let v = dth.scale(sn);
+        let turn = Q {
+            x: v.x,
+            y: v.y,
+            z: v.z,
+            w: c,
+        };
+        let rot = turn
+            .mul(Q::new(a.pose.rotation, b.pose.rotation))
+            .normalize();
+        let com = V::new(a.com, b.com).add(V::new(vec(&x[0], 0), vec(&x[1], 0)));
+        let at = com.sub(rot.rotate(V::new(a.local_com, b.local_com)));
+        let ([ca, cb], [ra, rb], [ta, tb]) = (com.split(), rot.split(), at.split());
+        (a.com, a.pose.rotation, a.pose.translation) = (ca, ra, ta);
+        (b.com, b.pose.rotation, b.pose.translation) = (cb, rb, tb);
+    }
+    for (s, x) in pairs.into_remainder().iter_mut().zip(ds.remainder()) {
+        displace(s, vec(x, 0), vec(x, 3));
+    }
+}
+
 /// The implicit-midpoint gyroscopic update over `dt`: `w' = w - dt I^-1 (w_m x I w_m)` with
 /// `w_m = (w + w') / 2` (fixed-point iterations, contracting for `dt |w| < 1`). It keeps the
 /// rotational energy and the angular momentum of a free body exactly, where the explicit
