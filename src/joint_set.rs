@@ -766,25 +766,23 @@ impl JointEntry {
 
     /// Absolute measures of the joint now, and the three wrapped rotation angles.
     pub(crate) fn measures(&self, bodies: &RigidBodySet) -> ([Real; 6], [Real; 3]) {
-        let f1 = *bodies[self.body1].position() * self.ansys[0];
-        let f2 = *bodies[self.body2].position() * self.ansys[1];
-        let (a1, a2) = (
-            Matrix::from_quat(f1.rotation),
-            Matrix::from_quat(f2.rotation),
-        );
-        self.measures_at(&f1, &f2, &a1, &a2)
+        self.measures_at(&self.ansys_frames(bodies))
     }
 
-    /// [`JointEntry::measures`] from the ANSYS frames `f1`, `f2` in the world and `a1`, the
-    /// axes of `f1`.
-    fn measures_at(
-        &self,
-        f1: &Pose,
-        f2: &Pose,
-        a1: &Matrix,
-        a2: &Matrix,
-    ) -> ([Real; 6], [Real; 3]) {
-        let u = kinematics::relative_displacement(a1, f1.translation, f2.translation);
+    /// The ANSYS frames (node I's on body 1, node J's on body 2) in the world, as a frame pair
+    /// (with the centres of mass at the origin: not read).
+    fn ansys_frames(&self, bodies: &RigidBodySet) -> FramePair {
+        FramePair::at(
+            &self.ansys,
+            (*bodies[self.body1].position(), Vector::ZERO),
+            (*bodies[self.body2].position(), Vector::ZERO),
+        )
+    }
+
+    /// [`JointEntry::measures`] from the ANSYS frames in the world ([`Self::ansys_frames`]).
+    fn measures_at(&self, f: &FramePair) -> ([Real; 6], [Real; 3]) {
+        let (a1, a2) = (&f.r1, &f.r2);
+        let u = kinematics::relative_displacement(a1, f.p1, f.p2);
         let rel = kinematics::relative_rotation(a1, a2);
         // The genb joint measures its rotations as 3-1-3 Euler angles (alpha about e3, beta
         // about the intermediate x, gamma about the final z), reported in the ROTX, ROTY, ROTZ
@@ -837,15 +835,8 @@ impl JointEntry {
         velocity: impl Fn(RigidBodyHandle) -> (Vector, Vector),
         springs: bool,
     ) {
-        let (p1, p2) = (
-            *bodies[self.body1].position(),
-            *bodies[self.body2].position(),
-        );
-        let f1 = p1 * self.ansys[0];
-        let f2 = p2 * self.ansys[1];
-        let a1 = Matrix::from_quat(f1.rotation);
-        let a2 = Matrix::from_quat(f2.rotation);
-        let (mut m, wrapped) = self.measures_at(&f1, &f2, &a1, &a2);
+        let f = self.ansys_frames(bodies);
+        let (mut m, wrapped) = self.measures_at(&f);
         let point = |b: RigidBodyHandle, x: Vector| {
             let rb = &bodies[b];
             if !rb.is_dynamic() {
@@ -854,27 +845,21 @@ impl JointEntry {
             let (v, w) = velocity(b);
             (v + w.cross(x - rb.center_of_mass()), w)
         };
-        let (v1, w1) = point(self.body1, f1.translation);
-        let (v2, w2) = point(self.body2, f2.translation);
-        let vel = kinematics::relative_velocity(&a1, f1.translation, f2.translation, v1, v2, w1);
-        let omg = kinematics::relative_angular_velocity(&a1, w1, w2);
-        // The row frames share frame I's axes on body 1 (and frame J's on body 2 unless the
-        // kind turns them): their axes are the output's where the local rotations agree.
-        let axes = |pose: &Pose, low: &Pose, ansys: &Pose, a: &Matrix| {
-            if low.rotation == ansys.rotation {
-                *a
-            } else {
-                Matrix::from_quat(pose.rotation * low.rotation)
-            }
+        let (v1, w1) = point(self.body1, f.p1);
+        let (v2, w2) = point(self.body2, f.p2);
+        let vel = kinematics::relative_velocity(&f.r1, f.p1, f.p2, v1, v2, w1);
+        let omg = kinematics::relative_angular_velocity(&f.r1, w1, w2);
+        // The rows' frames: the ANSYS frames where they agree (the same values to the bit:
+        // both are `body * frame`), else computed.
+        let (gap, angular_gap) = if self.low == self.ansys {
+            self.gaps_at(&f)
+        } else {
+            self.gaps_at(&FramePair::at(
+                &self.low,
+                (*bodies[self.body1].position(), Vector::ZERO),
+                (*bodies[self.body2].position(), Vector::ZERO),
+            ))
         };
-        let (gap, angular_gap) = self.gaps_at(&FramePair {
-            p1: p1 * self.low[0].translation,
-            r1: axes(&p1, &self.low[0], &self.ansys[0], &a1),
-            c1: Vector::ZERO,
-            p2: p2 * self.low[1].translation,
-            r2: axes(&p2, &self.low[1], &self.ansys[1], &a2),
-            c2: Vector::ZERO,
-        });
         let s = &mut self.state;
         for k in 0..3 {
             // psi and theta are unwrapped; phi = asin(..) never wraps.
