@@ -28,12 +28,12 @@ pub struct WorldSettings {
 
 /// What each step refreshes in the joints' outputs ([`crate::Mpc184World::output`]).
 ///
-/// | level | relative DOFs, rates, gaps, stop/lock/friction status | reactions (`force`, `moment`, `element_force`) | cost per step, 1000-joint mixed scene, dt 1/60 x4 (`joint_bench --cost`; Rapier alone 1.2 ms) |
+/// | level | relative DOFs, rates, gaps, stop/lock/friction status | reactions (`force`, `moment`, `element_force`) | cost per step, 1000-joint mixed scene, dt 1/60 x4 (`joint_bench --cost`; Rapier alone 0.94 ms) |
 /// |---|---|---|---|
-/// | [`Outputs::Full`] | every step | every step | Lagrange 4.3 ms, `rapier-impulse` 1.6 ms |
-/// | [`Outputs::Kinematics`] | every step | not computed (zero, or the last ones computed) | Lagrange the same (its reactions come from its multipliers), `rapier-impulse` 1.4 ms |
+/// | [`Outputs::Full`] | every step | every step | Lagrange 1.91 ms, `rapier-impulse` 1.23 ms |
+/// | [`Outputs::Kinematics`] | every step | not computed (zero, or the last ones computed) | Lagrange 1.88 ms (its reactions come from its multipliers), `rapier-impulse` 1.11 ms |
 ///
-/// (README table of 2026-11-26, fastest of five runs.) The divergence guard reads the gaps and
+/// (README table of 2026-11-28, fastest of five runs.) The divergence guard reads the gaps and
 /// rates, so they are refreshed at every level. On the Rapier backends the reactions are
 /// recovered by a momentum balance over the step (joint by joint from the leaves where the
 /// joints form a forest, a sparse factorisation over the jointed bodies where they close a
