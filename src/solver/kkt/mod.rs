@@ -200,44 +200,44 @@ macro_rules! by_pair {
     ($pv:expr, $N:ident, $M:ident => $body:expr) => {{
         match $pv.pair {
             1 => {
-                const $N: usize = 6;
-                const $M: usize = 5;
+                const $N: usize = PAIRS[0].0;
+                const $M: usize = PAIRS[0].1;
                 $body;
                 true
             }
             2 => {
-                const $N: usize = 5;
-                const $M: usize = 6;
+                const $N: usize = PAIRS[1].0;
+                const $M: usize = PAIRS[1].1;
                 $body;
                 true
             }
             3 => {
-                const $N: usize = 6;
-                const $M: usize = 3;
+                const $N: usize = PAIRS[2].0;
+                const $M: usize = PAIRS[2].1;
                 $body;
                 true
             }
             4 => {
-                const $N: usize = 3;
-                const $M: usize = 6;
+                const $N: usize = PAIRS[3].0;
+                const $M: usize = PAIRS[3].1;
                 $body;
                 true
             }
             5 => {
-                const $N: usize = 6;
-                const $M: usize = 4;
+                const $N: usize = PAIRS[4].0;
+                const $M: usize = PAIRS[4].1;
                 $body;
                 true
             }
             6 => {
-                const $N: usize = 4;
-                const $M: usize = 6;
+                const $N: usize = PAIRS[5].0;
+                const $M: usize = PAIRS[5].1;
                 $body;
                 true
             }
             7 => {
-                const $N: usize = 6;
-                const $M: usize = 6;
+                const $N: usize = PAIRS[6].0;
+                const $M: usize = PAIRS[6].1;
                 $body;
                 true
             }
@@ -246,19 +246,18 @@ macro_rules! by_pair {
     }};
 }
 
+/// The (pivot dimension, block rows) pairs [`by_pair`] runs with their own kernels: a body
+/// with its parent joint of 5, 3, 4 or 6 rows, and such a joint with its parent body. Code
+/// `k + 1` is entry `k`.
+const PAIRS: [(usize, usize); 7] = [(6, 5), (5, 6), (6, 3), (3, 6), (6, 4), (4, 6), (6, 6)];
+
 /// The code [`by_pair`] reads for a pivot of dimension `n` whose one off-diagonal block has
 /// `m` rows (0: another pair, run by the general steps).
 fn pair_code(n: usize, m: usize) -> u8 {
-    match (n, m) {
-        (6, 5) => 1,
-        (5, 6) => 2,
-        (6, 3) => 3,
-        (3, 6) => 4,
-        (6, 4) => 5,
-        (4, 6) => 6,
-        (6, 6) => 7,
-        _ => 0,
-    }
+    PAIRS
+        .iter()
+        .position(|&p| p == (n, m))
+        .map_or(0, |k| k as u8 + 1)
 }
 
 // After the macros above, which it uses.
