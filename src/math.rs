@@ -151,6 +151,27 @@ pub(crate) mod pair {
             ]
         }
 
+        /// [`super::turn`] of two rotation vectors by its series, or `None` where either is
+        /// outside the series' range (then each takes `turn`).
+        #[inline(always)]
+        pub(crate) fn turn(dth: V) -> Option<Q> {
+            let x2 = L::splat(0.25) * dth.dot(dth);
+            let [xa, xb] = split(x2);
+            if xa >= super::TURN_SERIES_LIMIT || xb >= super::TURN_SERIES_LIMIT {
+                return None;
+            }
+            let (one, c) = (L::splat(1.0), |k: Real| L::splat(k));
+            let s = c(0.5) * (one - x2 / c(6.0) * (one - x2 / c(20.0) * (one - x2 / c(42.0))));
+            let w = one - x2 / c(2.0) * (one - x2 / c(12.0) * (one - x2 / c(30.0)));
+            let v = dth.scale(s);
+            Some(Q {
+                x: v.x,
+                y: v.y,
+                z: v.z,
+                w,
+            })
+        }
+
         /// `self * o` (`DQuat::mul_quat`).
         #[inline(always)]
         pub(crate) fn mul(self, o: Q) -> Q {
@@ -235,7 +256,8 @@ pub fn turn_between(from: Rotation, to: Rotation) -> Vector {
 }
 
 /// The squared half angle (rad^2) from which [`turn`] calls `Rotation::from_scaled_axis`
-/// instead of its series: a turn of 0.01 rad.
+/// instead of its series: a turn of 0.01 rad. The series is also in `pair::Q::turn`, two
+/// turns at a time, in the same operations.
 pub(crate) const TURN_SERIES_LIMIT: Real = 2.5e-5;
 
 /// The rotation by the rotation vector `dth` (axis times angle, rad): `Rotation::from_scaled_axis`,

@@ -1050,33 +1050,16 @@ fn displace(s: &mut BodyState, dx: Vector, dth: Vector) {
 /// ([`crate::math::pair`]; the same results to the bit) where both turns are within
 /// [`crate::math::turn`]'s series, one at a time otherwise.
 fn displace_all(st: &mut [BodyState], d: &[[Real; 6]]) {
-    use crate::math::pair::{L, Q, V, split};
+    use crate::math::pair::{Q, V};
     let vec = |x: &[Real; 6], k: usize| Vector::new(x[k], x[k + 1], x[k + 2]);
     let mut pairs = st.chunks_exact_mut(2);
     let mut ds = d.chunks_exact(2);
     for (s, x) in (&mut pairs).zip(&mut ds) {
         let [a, b] = s else { continue };
-        let dth = V::new(vec(&x[0], 3), vec(&x[1], 3));
-        // `turn`'s series, as there.
-        let x2 = L::splat(0.25) * dth.dot(dth);
-        let [xa, xb] = split(x2);
-        if xa >= crate::math::TURN_SERIES_LIMIT || xb >= crate::math::TURN_SERIES_LIMIT {
+        let Some(turn) = Q::turn(V::new(vec(&x[0], 3), vec(&x[1], 3))) else {
             displace(a, vec(&x[0], 0), vec(&x[0], 3));
             displace(b, vec(&x[1], 0), vec(&x[1], 3));
             continue;
-        }
-        let (one, half) = (L::splat(1.0), L::splat(0.5));
-        let sn = half
-            * (one
-                - x2 / L::splat(6.0) * (one - x2 / L::splat(20.0) * (one - x2 / L::splat(42.0))));
-        let c =
-            one - x2 / L::splat(2.0) * (one - x2 / L::splat(12.0) * (one - x2 / L::splat(30.0)));
-        let v = dth.scale(sn);
-        let turn = Q {
-            x: v.x,
-            y: v.y,
-            z: v.z,
-            w: c,
         };
         let rot = turn
             .mul(Q::new(a.pose.rotation, b.pose.rotation))
