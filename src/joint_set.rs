@@ -854,11 +854,7 @@ impl JointEntry {
         let (gap, angular_gap) = if self.low == self.ansys {
             self.gaps_at(&f)
         } else {
-            self.gaps_at(&FramePair::at(
-                &self.low,
-                (*bodies[self.body1].position(), Vector::ZERO),
-                (*bodies[self.body2].position(), Vector::ZERO),
-            ))
+            self.gaps(bodies)
         };
         let s = &mut self.state;
         for k in 0..3 {
