@@ -190,54 +190,74 @@ macro_rules! by_rows {
     };
 }
 
-/// Runs `$body` with the constants `$N` (the pivot's dimension) and `$M` (the rows of its one
-/// off-diagonal block) for the pairs of a tree's body and joint pivots (a body of 6 with its
-/// parent joint of 3 to 6 rows, such a joint with its parent body: [`Pivot::pair`]), and
-/// evaluates to `true`; to `false` (nothing run) for a pivot with no block, several, or
-/// another pair. One jump on a code stored with the pivot: a match on the two sizes read at
-/// each pivot compiled to a chain of comparisons (1.6 % of the 100-link chain's step).
+/// Runs `$body` with the constants `$N` (the pivot's dimension), `$M` (the rows of its one
+/// off-diagonal block) and, in the second form, `$B` (the pivot is a body and its block's
+/// node a joint; else the reverse) for the pairs of a tree's body and joint pivots (a body of
+/// 6 with its parent joint of 3 to 6 rows, such a joint with its parent body:
+/// [`Pivot::pair`]), and evaluates to `true`; to `false` (nothing run) for a pivot with no
+/// block, several, or another pair. One jump on a code stored with the pivot: a match on the
+/// two sizes read at each pivot compiled to a chain of comparisons (1.6 % of the 100-link
+/// chain's step), and with `$B` the solve picks its two segments without a branch on where
+/// each lives (1.4 % more).
 macro_rules! by_pair {
-    ($pv:expr, $N:ident, $M:ident => $body:expr) => {{
+    ($pv:expr, $N:ident, $M:ident => $body:expr) => {
+        by_pair!($pv, $N, $M, _B => $body)
+    };
+    ($pv:expr, $N:ident, $M:ident, $B:ident => $body:expr) => {{
         match $pv.pair {
             1 => {
                 const $N: usize = PAIRS[0].0;
                 const $M: usize = PAIRS[0].1;
+                const $B: bool = PAIRS[0].2;
                 $body;
                 true
             }
             2 => {
                 const $N: usize = PAIRS[1].0;
                 const $M: usize = PAIRS[1].1;
+                const $B: bool = PAIRS[1].2;
                 $body;
                 true
             }
             3 => {
                 const $N: usize = PAIRS[2].0;
                 const $M: usize = PAIRS[2].1;
+                const $B: bool = PAIRS[2].2;
                 $body;
                 true
             }
             4 => {
                 const $N: usize = PAIRS[3].0;
                 const $M: usize = PAIRS[3].1;
+                const $B: bool = PAIRS[3].2;
                 $body;
                 true
             }
             5 => {
                 const $N: usize = PAIRS[4].0;
                 const $M: usize = PAIRS[4].1;
+                const $B: bool = PAIRS[4].2;
                 $body;
                 true
             }
             6 => {
                 const $N: usize = PAIRS[5].0;
                 const $M: usize = PAIRS[5].1;
+                const $B: bool = PAIRS[5].2;
                 $body;
                 true
             }
             7 => {
                 const $N: usize = PAIRS[6].0;
                 const $M: usize = PAIRS[6].1;
+                const $B: bool = PAIRS[6].2;
+                $body;
+                true
+            }
+            8 => {
+                const $N: usize = PAIRS[7].0;
+                const $M: usize = PAIRS[7].1;
+                const $B: bool = PAIRS[7].2;
                 $body;
                 true
             }
@@ -246,17 +266,27 @@ macro_rules! by_pair {
     }};
 }
 
-/// The (pivot dimension, block rows) pairs [`by_pair`] runs with their own kernels: a body
-/// with its parent joint of 5, 3, 4 or 6 rows, and such a joint with its parent body. Code
-/// `k + 1` is entry `k`.
-const PAIRS: [(usize, usize); 7] = [(6, 5), (5, 6), (6, 3), (3, 6), (6, 4), (4, 6), (6, 6)];
+/// The (pivot dimension, block rows, the pivot is a body) triples [`by_pair`] runs with their
+/// own kernels: a body with its parent joint of 5, 3, 4 or 6 rows, and such a joint with its
+/// parent body. Code `k + 1` is entry `k`.
+const PAIRS: [(usize, usize, bool); 8] = [
+    (6, 5, true),
+    (5, 6, false),
+    (6, 3, true),
+    (3, 6, false),
+    (6, 4, true),
+    (4, 6, false),
+    (6, 6, true),
+    (6, 6, false),
+];
 
-/// The code [`by_pair`] reads for a pivot of dimension `n` whose one off-diagonal block has
-/// `m` rows (0: another pair, run by the general steps).
-fn pair_code(n: usize, m: usize) -> u8 {
+/// The code [`by_pair`] reads for a pivot of dimension `n` (a body: `body`) whose one
+/// off-diagonal block has `m` rows and couples it to a node of the other kind (0: another
+/// pair, run by the general steps).
+fn pair_code(n: usize, m: usize, body: bool) -> u8 {
     PAIRS
         .iter()
-        .position(|&p| p == (n, m))
+        .position(|&p| p == (n, m, body))
         .map_or(0, |k| k as u8 + 1)
 }
 
@@ -724,7 +754,9 @@ impl Layout {
                 blk_start,
                 blk_end: l.blocks.len(),
                 pair: match nbrs.as_slice() {
-                    [j] => pair_code(n, dim(*j)),
+                    // A body with a joint, or a joint with a body (not a loop's joint-joint
+                    // fill): the solve then knows which side each vector is on.
+                    [j] if (v < nb) != (*j < nb) => pair_code(n, dim(*j), v < nb),
                     _ => 0,
                 },
                 op_start: 0,
@@ -1227,22 +1259,24 @@ fn substitute<T: Lane, const P: bool>(
     joints: &mut [T],
 ) {
     for pv in &shape.pivots {
-        if !by_pair!(pv, N, M => forward_one::<T, N, M, P>(shape, num, perms, pv, bodies, joints)) {
+        if !by_pair!(pv, N, M, B => forward_one::<T, N, M, P, B>(shape, num, perms, pv, bodies, joints))
+        {
             by_dim!(pv.dim, N => forward_step::<T, N, P>(shape, num, perms, pv, bodies, joints));
         }
     }
     // Backward: x_p = P⁺ (z_p - Σ W_jᵀ x_j) = Πᵀ L⁻ᵀ (u_p - D⁺ Σ Y_jᵀ x_j).
     for pv in shape.pivots.iter().rev() {
-        if !by_pair!(pv, N, M => backward_one::<T, N, M, P>(shape, num, perms, pv, bodies, joints))
+        if !by_pair!(pv, N, M, B => backward_one::<T, N, M, P, B>(shape, num, perms, pv, bodies, joints))
         {
             by_dim!(pv.dim, N => backward_step::<T, N, P>(shape, num, perms, pv, bodies, joints));
         }
     }
 }
 
-/// [`forward_step`] of a pivot of dimension `N` with one off-diagonal block of `M` rows.
+/// [`forward_step`] of a pivot of dimension `N` with one off-diagonal block of `M` rows, to a
+/// node of the other kind (`B`: the pivot is a body, its block's node a joint).
 #[inline(always)]
-fn forward_one<T: Lane, const N: usize, const M: usize, const P: bool>(
+fn forward_one<T: Lane, const N: usize, const M: usize, const P: bool, const B: bool>(
     shape: &Shape,
     num: &Numeric<T>,
     perms: &[u8],
@@ -1251,17 +1285,34 @@ fn forward_one<T: Lane, const N: usize, const M: usize, const P: bool>(
     joints: &mut [T],
 ) {
     let fac = Packed::<T, N, P>::new(&num.diag[pv.diag_off..], &perms[pv.scale_off..]);
-    let slot = seg(pv.rhs, N, bodies, joints);
-    let u = fac.scaled_into(fac.lower_solve(slot), slot);
     let blk = &shape.blocks[pv.blk_start];
+    let (slot, r) = sides::<T, N, M, B>(pv.rhs.off, blk.rhs.off, bodies, joints);
+    let u = fac.scaled_into(fac.lower_solve(slot), slot);
     let y = &num.offd[blk.off..blk.off + M * N];
-    let r = seg(blk.rhs, M, bodies, joints);
     sub_mat_t_vec::<T, N, M>(y, &u, r);
 }
 
-/// [`backward_step`] of a pivot of dimension `N` with one off-diagonal block of `M` rows.
+/// The right-hand-side segments of a pivot (`N` long at `own`) and of its block's node (`M`
+/// long at `other`), the body's in `bodies` and the joint's in `joints` (`B`: the pivot is the
+/// body).
 #[inline(always)]
-fn backward_one<T: Lane, const N: usize, const M: usize, const P: bool>(
+fn sides<'a, T, const N: usize, const M: usize, const B: bool>(
+    own: usize,
+    other: usize,
+    bodies: &'a mut [T],
+    joints: &'a mut [T],
+) -> (&'a mut [T], &'a mut [T]) {
+    if B {
+        (&mut bodies[own..own + N], &mut joints[other..other + M])
+    } else {
+        (&mut joints[own..own + N], &mut bodies[other..other + M])
+    }
+}
+
+/// [`backward_step`] of a pivot of dimension `N` with one off-diagonal block of `M` rows, as
+/// [`forward_one`].
+#[inline(always)]
+fn backward_one<T: Lane, const N: usize, const M: usize, const P: bool, const B: bool>(
     shape: &Shape,
     num: &Numeric<T>,
     perms: &[u8],
@@ -1273,9 +1324,8 @@ fn backward_one<T: Lane, const N: usize, const M: usize, const P: bool>(
     let mut acc = [T::ZERO; N];
     let blk = &shape.blocks[pv.blk_start];
     let y = &num.offd[blk.off..blk.off + M * N];
-    let x = seg(blk.rhs, M, bodies, joints);
+    let (slot, x) = sides::<T, N, M, B>(pv.rhs.off, blk.rhs.off, bodies, joints);
     add_mat_vec::<T, N, M>(y, x, &mut acc);
-    let slot = seg(pv.rhs, N, bodies, joints);
     let mut t = [T::ZERO; N];
     for (((ti, &ui), &ai), &di) in t.iter_mut().zip(slot.iter()).zip(&acc).zip(fac.dinv) {
         *ti = ui - di * ai;
