@@ -2325,15 +2325,10 @@ impl PivotWork {
     /// Outputs (permuted order): `a` receives `L` strictly below its diagonal (zero in the
     /// columns of the dropped rows; the rest of `a` is left unspecified), `sd` receives `D⁺`
     /// (`1 / d` for the kept pivots, `0` for the dropped ones) and `perm_out` the permutation.
-    ///
-    /// Inlined into its caller: as a call of its own (which the compiler made it once the
-    /// tree pivots' Schur update was inlined there) it cost the 100-link chain 1.7 % more
-    /// instructions per step.
     #[allow(
         clippy::needless_range_loop,
         reason = "index loops with compile-time bounds, fully unrolled"
     )]
-    #[inline(always)]
     fn factor<const N: usize>(
         &mut self,
         a: &mut [Real],
