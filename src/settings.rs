@@ -28,10 +28,10 @@ pub struct WorldSettings {
 
 /// What each step refreshes in the joints' outputs ([`crate::Mpc184World::output`]).
 ///
-/// | level | relative DOFs, rates, gaps, stop/lock/friction status | reactions (`force`, `moment`, `element_force`) | cost per step, 1000-joint mixed scene, dt 1/60 x4 (`joint_bench --cost`; Rapier alone 0.94 ms) |
+/// | level | relative DOFs, rates, gaps, stop/lock/friction status | reactions (`force`, `moment`, `element_force`) | cost per step, 1000-joint mixed scene, dt 1/60 x4 (`joint_bench --cost`; Rapier alone 0.93 ms) |
 /// |---|---|---|---|
-/// | [`Outputs::Full`] | every step | every step | Lagrange 1.91 ms, `rapier-impulse` 1.23 ms |
-/// | [`Outputs::Kinematics`] | every step | not computed (zero, or the last ones computed) | Lagrange 1.88 ms (its reactions come from its multipliers), `rapier-impulse` 1.11 ms |
+/// | [`Outputs::Full`] | every step | every step | Lagrange 1.86 ms, `rapier-impulse` 1.22 ms |
+/// | [`Outputs::Kinematics`] | every step | not computed (zero, or the last ones computed) | Lagrange 1.82 ms (its reactions come from its multipliers), `rapier-impulse` 1.10 ms |
 ///
 /// (README table of 2026-11-28, fastest of five runs.) The divergence guard reads the gaps and
 /// rates, so they are refreshed at every level. On the Rapier backends the reactions are
