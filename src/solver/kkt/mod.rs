@@ -190,6 +190,17 @@ macro_rules! by_rows {
     };
 }
 
+/// One arm of [`by_pair`]: `$body` with the constants of entry `$k` of [`PAIRS`], then `true`.
+macro_rules! pair_arm {
+    ($k:literal, $N:ident, $M:ident, $B:ident => $body:expr) => {{
+        const $N: usize = PAIRS[$k].0;
+        const $M: usize = PAIRS[$k].1;
+        const $B: bool = PAIRS[$k].2;
+        $body;
+        true
+    }};
+}
+
 /// Runs `$body` with the constants `$N` (the pivot's dimension), `$M` (the rows of its one
 /// off-diagonal block) and, in the second form, `$B` (the pivot is a body and its block's
 /// node a joint; else the reverse) for the pairs of a tree's body and joint pivots (a body of
@@ -205,62 +216,14 @@ macro_rules! by_pair {
     };
     ($pv:expr, $N:ident, $M:ident, $B:ident => $body:expr) => {{
         match $pv.pair {
-            1 => {
-                const $N: usize = PAIRS[0].0;
-                const $M: usize = PAIRS[0].1;
-                const $B: bool = PAIRS[0].2;
-                $body;
-                true
-            }
-            2 => {
-                const $N: usize = PAIRS[1].0;
-                const $M: usize = PAIRS[1].1;
-                const $B: bool = PAIRS[1].2;
-                $body;
-                true
-            }
-            3 => {
-                const $N: usize = PAIRS[2].0;
-                const $M: usize = PAIRS[2].1;
-                const $B: bool = PAIRS[2].2;
-                $body;
-                true
-            }
-            4 => {
-                const $N: usize = PAIRS[3].0;
-                const $M: usize = PAIRS[3].1;
-                const $B: bool = PAIRS[3].2;
-                $body;
-                true
-            }
-            5 => {
-                const $N: usize = PAIRS[4].0;
-                const $M: usize = PAIRS[4].1;
-                const $B: bool = PAIRS[4].2;
-                $body;
-                true
-            }
-            6 => {
-                const $N: usize = PAIRS[5].0;
-                const $M: usize = PAIRS[5].1;
-                const $B: bool = PAIRS[5].2;
-                $body;
-                true
-            }
-            7 => {
-                const $N: usize = PAIRS[6].0;
-                const $M: usize = PAIRS[6].1;
-                const $B: bool = PAIRS[6].2;
-                $body;
-                true
-            }
-            8 => {
-                const $N: usize = PAIRS[7].0;
-                const $M: usize = PAIRS[7].1;
-                const $B: bool = PAIRS[7].2;
-                $body;
-                true
-            }
+            1 => pair_arm!(0, $N, $M, $B => $body),
+            2 => pair_arm!(1, $N, $M, $B => $body),
+            3 => pair_arm!(2, $N, $M, $B => $body),
+            4 => pair_arm!(3, $N, $M, $B => $body),
+            5 => pair_arm!(4, $N, $M, $B => $body),
+            6 => pair_arm!(5, $N, $M, $B => $body),
+            7 => pair_arm!(6, $N, $M, $B => $body),
+            8 => pair_arm!(7, $N, $M, $B => $body),
             _ => false,
         }
     }};
